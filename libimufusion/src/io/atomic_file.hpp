@@ -1,0 +1,31 @@
+#pragma once
+// Atomic replacement of a file: the content goes to `PATH.tmp-XXXXXXXX` in the same directory and
+// is renamed over PATH only when complete, so a reader never sees a half-written file under the
+// final name and a failed write leaves an existing file untouched. (Durability across a power
+// loss is not promised: there is no fsync.)
+
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "imufusion/result.hpp"
+
+namespace imufusion::io {
+
+/// Opens a fresh temporary file next to `path`, lets `write` fill it through the FILE*, closes it
+/// and renames it over `path`. On any failure the temporary file is removed and the error names
+/// `path`. `write` must not close the stream.
+Status write_file_atomically(const std::filesystem::path& path,
+                             const std::function<Status(std::FILE*)>& write);
+
+/// Writes `content` to `path` atomically.
+Status write_text_atomically(const std::filesystem::path& path, std::string_view content);
+
+/// Reads a whole file. kNotFound when it does not exist, kIoError when it cannot be read.
+Result<std::vector<std::uint8_t>> read_file_bytes(const std::filesystem::path& path);
+
+}  // namespace imufusion::io
