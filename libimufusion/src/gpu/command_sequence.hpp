@@ -1,0 +1,66 @@
+#pragma once
+// Records a sequence of compute dispatches into one command buffer, with a memory barrier after
+// each, GPU timestamps around each, and descriptor sets from a pool reset at every begin().
+// submit_and_wait() returns the per-kernel GPU times.
+
+#include <cstdint>
+#include <initializer_list>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <vulkan/vulkan.h>
+
+#include "gpu/buffer.hpp"
+#include "gpu/context.hpp"
+#include "gpu/pipeline.hpp"
+#include "imufusion/device.hpp"
+#include "imufusion/result.hpp"
+
+namespace imufusion::gpu {
+
+class CommandSequence {
+ public:
+  /// Room for up to `max_dispatches` dispatches between begin() and submit_and_wait().
+  static Result<CommandSequence> create(std::shared_ptr<Context> context,
+                                        std::uint32_t max_dispatches);
+
+  CommandSequence() = default;
+  ~CommandSequence();
+  CommandSequence(CommandSequence&& other) noexcept;
+  CommandSequence& operator=(CommandSequence&& other) noexcept;
+  CommandSequence(const CommandSequence&) = delete;
+  CommandSequence& operator=(const CommandSequence&) = delete;
+
+  Status begin();
+  /// Records one dispatch of `pipeline` over a width x height grid of invocations (rounded up to
+  /// whole workgroups), binding `buffers` in order. Errors are kept and returned by submit.
+  void dispatch(const ComputePipeline& pipeline, std::initializer_list<const Buffer*> buffers,
+                const void* push_constants, std::uint32_t width, std::uint32_t height,
+                const std::string& label);
+  template <typename Push>
+  void dispatch(const ComputePipeline& pipeline, std::initializer_list<const Buffer*> buffers,
+                const Push& push, std::uint32_t width, std::uint32_t height,
+                const std::string& label) {
+    dispatch(pipeline, buffers, static_cast<const void*>(&push), width, height, label);
+  }
+  /// Ends recording, submits, waits for completion, and returns one timing per dispatch.
+  Result<std::vector<KernelTiming>> submit_and_wait();
+
+ private:
+  void release();
+
+  std::shared_ptr<Context> context_;
+  std::uint32_t max_dispatches_ = 0;
+  VkCommandPool pool_ = VK_NULL_HANDLE;
+  VkCommandBuffer cmd_ = VK_NULL_HANDLE;
+  VkFence fence_ = VK_NULL_HANDLE;
+  VkDescriptorPool descriptor_pool_ = VK_NULL_HANDLE;
+  VkQueryPool queries_ = VK_NULL_HANDLE;
+  std::vector<std::string> labels_;
+  std::optional<Error> error_;
+  bool recording_ = false;
+};
+
+}  // namespace imufusion::gpu

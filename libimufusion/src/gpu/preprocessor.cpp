@@ -1,0 +1,217 @@
+#include "gpu/preprocessor.hpp"
+
+#include <string>
+#include <utility>
+
+#include "imufusion_layouts.h"
+
+namespace imufusion {
+
+Status PreprocessConfig::validate() const {
+  auto bad = [](const std::string& what) { return make_error(ErrorCode::kInvalidArgument, what); };
+  if (levels < 1 || levels > 6) return bad("pyramid levels must be 1..6, got " + std::to_string(levels));
+  if (!(min_depth >= 0 && max_depth > min_depth))
+    return bad("depth range [" + std::to_string(min_depth) + ", " + std::to_string(max_depth) + "] is empty");
+  if (bilateral_radius < 0 || bilateral_radius > 15)
+    return bad("bilateral radius must be 0..15, got " + std::to_string(bilateral_radius));
+  if (!(bilateral_sigma_space > 0) || !(bilateral_sigma_depth > 0))
+    return bad("bilateral sigmas must be positive");
+  if (!(max_jump_fraction > 0)) return bad("max_jump_fraction must be positive");
+  if (workgroup_x < 1 || workgroup_y < 1) return bad("workgroup size must be positive");
+  return {};
+}
+
+namespace gpu {
+namespace {
+
+std::string level_label(const char* kernel, int level) {
+  return std::string(kernel) + "[" + std::to_string(level) + "]";
+}
+
+template <typename Image>
+Result<Image> download_image(const Buffer& buffer, int width, int height) {
+  Image image;
+  image.width = width;
+  image.height = height;
+  image.data.resize(static_cast<std::size_t>(width) * height);
+  IMUFUSION_RETURN_IF_ERROR(
+      buffer.download(image.data.data(), image.data.size() * sizeof(image.data[0])));
+  return image;
+}
+
+}  // namespace
+
+Result<Preprocessor> Preprocessor::create(std::shared_ptr<Context> context,
+                                          const PreprocessConfig& config,
+                                          const Intrinsics& intrinsics) {
+  IMUFUSION_RETURN_IF_ERROR(config.validate());
+  if (intrinsics.width < (1 << config.levels) || intrinsics.height < (1 << config.levels) ||
+      !(intrinsics.fx > 0) || !(intrinsics.fy > 0)) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "intrinsics " + std::to_string(intrinsics.width) + "x" +
+                          std::to_string(intrinsics.height) + " fx " + std::to_string(intrinsics.fx) +
+                          " cannot hold " + std::to_string(config.levels) + " pyramid levels");
+  }
+  Preprocessor p;
+  p.config_ = config;
+  const auto wx = static_cast<std::uint32_t>(config.workgroup_x);
+  const auto wy = static_cast<std::uint32_t>(config.workgroup_y);
+  auto make = [&](const char* shader, std::uint32_t push_bytes, ComputePipeline& out) -> Status {
+    auto pipeline = ComputePipeline::create(context, {shader, 2, push_bytes, wx, wy});
+    if (!pipeline) return pipeline.error();
+    out = std::move(*pipeline);
+    return {};
+  };
+  IMUFUSION_RETURN_IF_ERROR(make("depth_to_metres", sizeof(layout::DepthToMetresParams), p.to_metres_));
+  IMUFUSION_RETURN_IF_ERROR(make("bilateral", sizeof(layout::BilateralParams), p.bilateral_));
+  IMUFUSION_RETURN_IF_ERROR(make("pyramid_down", sizeof(layout::PyramidDownParams), p.pyramid_down_));
+  IMUFUSION_RETURN_IF_ERROR(make("vertex_map", sizeof(layout::VertexMapParams), p.vertex_map_));
+  IMUFUSION_RETURN_IF_ERROR(make("normal_map", sizeof(layout::NormalMapParams), p.normal_map_));
+
+  auto alloc = [&](std::size_t bytes, Buffer& out) -> Status {
+    auto buffer = Buffer::create(context, bytes);
+    if (!buffer) return buffer.error();
+    out = std::move(*buffer);
+    return {};
+  };
+  const auto pixels0 = static_cast<std::size_t>(intrinsics.width) * intrinsics.height;
+  IMUFUSION_RETURN_IF_ERROR(alloc((pixels0 + 1) / 2 * 4, p.raw_));
+  IMUFUSION_RETURN_IF_ERROR(alloc(pixels0 * sizeof(float), p.raw_metres_));
+  for (int level = 0; level < config.levels; ++level) {
+    const Intrinsics k = intrinsics.at_level(level);
+    p.levels_.push_back(k);
+    const auto pixels = static_cast<std::size_t>(k.width) * k.height;
+    p.depth_.emplace_back();
+    p.vertices_.emplace_back();
+    p.normals_.emplace_back();
+    IMUFUSION_RETURN_IF_ERROR(alloc(pixels * sizeof(float), p.depth_.back()));
+    IMUFUSION_RETURN_IF_ERROR(alloc(pixels * 4 * sizeof(float), p.vertices_.back()));
+    IMUFUSION_RETURN_IF_ERROR(alloc(pixels * 4 * sizeof(float), p.normals_.back()));
+  }
+  return p;
+}
+
+Status Preprocessor::upload(const DepthImage& depth) {
+  const Intrinsics& k = levels_.front();
+  if (depth.width != k.width || depth.height != k.height ||
+      depth.data.size() != static_cast<std::size_t>(k.width) * k.height) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "depth image is " + std::to_string(depth.width) + "x" +
+                          std::to_string(depth.height) + ", the preprocessor was made for " +
+                          std::to_string(k.width) + "x" + std::to_string(k.height));
+  }
+  if (!(depth.depth_scale > 0)) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "depth_scale must be positive, got " + std::to_string(depth.depth_scale));
+  }
+  depth_scale_ = depth.depth_scale;
+  // The shader reads two little-endian uint16 per 32-bit word; an odd pixel count leaves the last
+  // half-word unused.
+  return raw_.upload(depth.data.data(), depth.data.size() * sizeof(std::uint16_t));
+}
+
+std::uint32_t Preprocessor::dispatch_count() const {
+  return 2 + static_cast<std::uint32_t>(config_.levels - 1) + 2 * static_cast<std::uint32_t>(config_.levels);
+}
+
+void Preprocessor::record(CommandSequence& seq) const {
+  const Intrinsics& k0 = levels_.front();
+  const auto w0 = static_cast<std::uint32_t>(k0.width);
+  const auto h0 = static_cast<std::uint32_t>(k0.height);
+  const layout::DepthToMetresParams metres{w0, h0, static_cast<float>(1.0 / depth_scale_),
+                                           config_.min_depth, config_.max_depth};
+  seq.dispatch(to_metres_, {&raw_, &raw_metres_}, metres, w0, h0, "depth_to_metres");
+  const float ss = config_.bilateral_sigma_space;
+  const float sd = config_.bilateral_sigma_depth;
+  const layout::BilateralParams bilateral{w0, h0, config_.bilateral_radius, 1.0f / (2 * ss * ss),
+                                          1.0f / (2 * sd * sd)};
+  seq.dispatch(bilateral_, {&raw_metres_, &depth_[0]}, bilateral, w0, h0, level_label("bilateral", 0));
+  for (int level = 1; level < config_.levels; ++level) {
+    const Intrinsics& src = levels_[static_cast<std::size_t>(level - 1)];
+    const Intrinsics& dst = levels_[static_cast<std::size_t>(level)];
+    const layout::PyramidDownParams down{
+        static_cast<std::uint32_t>(src.width), static_cast<std::uint32_t>(src.height),
+        static_cast<std::uint32_t>(dst.width), static_cast<std::uint32_t>(dst.height),
+        config_.max_jump_fraction};
+    seq.dispatch(pyramid_down_, {&depth_[static_cast<std::size_t>(level - 1)], &depth_[static_cast<std::size_t>(level)]},
+                 down, down.dst_width, down.dst_height, level_label("pyramid_down", level));
+  }
+  for (int level = 0; level < config_.levels; ++level) {
+    const auto l = static_cast<std::size_t>(level);
+    const Intrinsics& k = levels_[l];
+    const auto w = static_cast<std::uint32_t>(k.width);
+    const auto h = static_cast<std::uint32_t>(k.height);
+    const layout::VertexMapParams vp{w, h, static_cast<float>(k.fx), static_cast<float>(k.fy),
+                                     static_cast<float>(k.cx), static_cast<float>(k.cy)};
+    seq.dispatch(vertex_map_, {&depth_[l], &vertices_[l]}, vp, w, h, level_label("vertex_map", level));
+    const layout::NormalMapParams np{w, h, config_.max_jump_fraction};
+    seq.dispatch(normal_map_, {&vertices_[l], &normals_[l]}, np, w, h, level_label("normal_map", level));
+  }
+}
+
+Result<PreprocessedFrame> Preprocessor::download() const {
+  PreprocessedFrame frame;
+  const Intrinsics& k0 = levels_.front();
+  auto raw = download_image<FloatImage>(raw_metres_, k0.width, k0.height);
+  if (!raw) return raw.error();
+  frame.raw_depth = std::move(*raw);
+  for (int level = 0; level < config_.levels; ++level) {
+    const auto l = static_cast<std::size_t>(level);
+    auto d = download_image<FloatImage>(depth_[l], levels_[l].width, levels_[l].height);
+    if (!d) return d.error();
+    auto v = download_image<Vec4Image>(vertices_[l], levels_[l].width, levels_[l].height);
+    if (!v) return v.error();
+    auto n = download_image<Vec4Image>(normals_[l], levels_[l].width, levels_[l].height);
+    if (!n) return n.error();
+    frame.depth.push_back(std::move(*d));
+    frame.vertices.push_back(std::move(*v));
+    frame.normals.push_back(std::move(*n));
+  }
+  return frame;
+}
+
+}  // namespace gpu
+
+struct DepthPreprocessor::Impl {
+  std::shared_ptr<gpu::Context> context;
+  gpu::Preprocessor kernels;
+  gpu::CommandSequence seq;
+};
+
+DepthPreprocessor::DepthPreprocessor(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+DepthPreprocessor::~DepthPreprocessor() = default;
+DepthPreprocessor::DepthPreprocessor(DepthPreprocessor&&) noexcept = default;
+DepthPreprocessor& DepthPreprocessor::operator=(DepthPreprocessor&&) noexcept = default;
+
+Result<DepthPreprocessor> DepthPreprocessor::create(const PreprocessConfig& config,
+                                                    const Intrinsics& intrinsics,
+                                                    const DeviceOptions& device) {
+  auto context = gpu::Context::create(device);
+  if (!context) return context.error();
+  auto kernels = gpu::Preprocessor::create(*context, config, intrinsics);
+  if (!kernels) return kernels.error();
+  auto seq = gpu::CommandSequence::create(*context, kernels->dispatch_count());
+  if (!seq) return seq.error();
+  auto impl = std::make_unique<Impl>(Impl{std::move(*context), std::move(*kernels), std::move(*seq)});
+  return DepthPreprocessor(std::move(impl));
+}
+
+Result<PreprocessedFrame> DepthPreprocessor::process(const DepthImage& depth) {
+  IMUFUSION_RETURN_IF_ERROR(impl_->kernels.upload(depth));
+  IMUFUSION_RETURN_IF_ERROR(impl_->seq.begin());
+  impl_->kernels.record(impl_->seq);
+  auto timings = impl_->seq.submit_and_wait();
+  if (!timings) return timings.error();
+  auto frame = impl_->kernels.download();
+  if (!frame) return frame.error();
+  frame->timings = std::move(*timings);
+  return frame;
+}
+
+const DeviceInfo& DepthPreprocessor::device() const { return impl_->context->info(); }
+const PreprocessConfig& DepthPreprocessor::config() const { return impl_->kernels.config(); }
+std::uint32_t DepthPreprocessor::validation_error_count() const {
+  return impl_->context->validation_error_count();
+}
+
+}  // namespace imufusion

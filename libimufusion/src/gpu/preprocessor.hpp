@@ -1,0 +1,47 @@
+#pragma once
+// The preprocessing kernels' dispatcher: owns their pipelines and the per-level GPU buffers,
+// which later stages (ICP, fusion) bind directly.
+
+#include <memory>
+#include <vector>
+
+#include "gpu/buffer.hpp"
+#include "gpu/command_sequence.hpp"
+#include "gpu/context.hpp"
+#include "gpu/pipeline.hpp"
+#include "imufusion/preprocess.hpp"
+
+namespace imufusion::gpu {
+
+class Preprocessor {
+ public:
+  static Result<Preprocessor> create(std::shared_ptr<Context> context,
+                                     const PreprocessConfig& config, const Intrinsics& intrinsics);
+
+  /// Uploads `depth` into the raw buffer (sizes are checked).
+  Status upload(const DepthImage& depth);
+  /// Records every preprocessing dispatch into `seq` (between begin and submit).
+  void record(CommandSequence& seq) const;
+  /// Number of dispatches record() adds.
+  std::uint32_t dispatch_count() const;
+  /// Copies the results of the last submitted run to the host.
+  Result<PreprocessedFrame> download() const;
+
+  const Buffer& raw_depth_metres() const { return raw_metres_; }
+  const Buffer& depth(int level) const { return depth_[static_cast<std::size_t>(level)]; }
+  const Buffer& vertices(int level) const { return vertices_[static_cast<std::size_t>(level)]; }
+  const Buffer& normals(int level) const { return normals_[static_cast<std::size_t>(level)]; }
+  const Intrinsics& intrinsics(int level) const { return levels_[static_cast<std::size_t>(level)]; }
+  const PreprocessConfig& config() const { return config_; }
+
+ private:
+  PreprocessConfig config_;
+  std::vector<Intrinsics> levels_;
+  ComputePipeline to_metres_, bilateral_, pyramid_down_, vertex_map_, normal_map_;
+  Buffer raw_;         // uint16 pairs
+  Buffer raw_metres_;  // level 0, unfiltered
+  std::vector<Buffer> depth_, vertices_, normals_;
+  double depth_scale_ = 0;
+};
+
+}  // namespace imufusion::gpu

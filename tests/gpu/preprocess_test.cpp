@@ -1,0 +1,262 @@
+// GPU preprocessing kernels against their CPU references (src/reference), on odd image sizes so
+// that partial workgroups run. Each kernel is checked on the same input the GPU kernel saw:
+//   depth_to_metres: identical validity, |gpu - ref| <= 1e-6 m (float multiply vs double divide);
+//   bilateral, pyramid_down: identical validity, |gpu - ref| <= 1e-5 m (float vs double exp/sums);
+//   vertex_map: identical validity, |gpu - ref| <= 1e-5 m per coordinate;
+//   normal_map: identical validity, |gpu - ref| <= 1e-4 per component (unit vectors).
+// The whole chain is also compared with the reference chain: validity may differ on at most 0.5%
+// of pixels (float rounding moves a few comparisons at discontinuity thresholds), values as above
+// with 1e-4 m / 1e-3.
+
+#include <cmath>
+#include <cstdint>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "gpu/command_sequence.hpp"
+#include "gpu/preprocessor.hpp"
+#include "gpu_test_env.hpp"
+#include "imufusion/preprocess.hpp"
+#include "reference/preprocess_reference.hpp"
+
+namespace imufusion {
+namespace {
+
+using test::GpuTest;
+
+Intrinsics test_intrinsics(int width, int height) {
+  Intrinsics k;
+  k.width = width;
+  k.height = height;
+  k.fx = 0.8 * width;
+  k.fy = 0.8 * width;
+  k.cx = (width - 1) / 2.0 + 1.3;
+  k.cy = (height - 1) / 2.0 - 0.7;
+  return k;
+}
+
+// A tilted plane at ~2 m with a box step (a depth discontinuity), a sphere in front, random holes,
+// noise and a few out-of-range pixels.
+DepthImage test_depth(const Intrinsics& k, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  DepthImage depth;
+  depth.width = k.width;
+  depth.height = k.height;
+  depth.depth_scale = 5000.0;
+  depth.data.resize(static_cast<std::size_t>(k.width) * k.height);
+  const Eigen::Vector3d centre(0.1, -0.05, 1.2);
+  for (int v = 0; v < k.height; ++v) {
+    for (int u = 0; u < k.width; ++u) {
+      const Eigen::Vector3d ray((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0);
+      double z = 2.0 + 0.4 * ray.x() - 0.2 * ray.y();  // plane z = 2 + 0.4x - 0.2y (per unit z)
+      z = 2.0 / (1.0 - 0.4 * ray.x() + 0.2 * ray.y());
+      if (u > k.width * 2 / 3 && v < k.height / 2) z -= 0.5;  // a box face 0.5 m closer
+      const double b = -2 * ray.dot(centre), a = ray.squaredNorm();
+      const double c = centre.squaredNorm() - 0.25 * 0.25;
+      const double disc = b * b - 4 * a * c;
+      if (disc > 0) z = std::min(z, (-b - std::sqrt(disc)) / (2 * a));
+      z += 0.003 * (unit(rng) - 0.5);
+      std::uint16_t raw = static_cast<std::uint16_t>(std::lround(z * depth.depth_scale));
+      const double r = unit(rng);
+      if (r < 0.04) raw = 0;                   // dropout
+      else if (r < 0.05) raw = 30000;          // 6 m: beyond max_depth
+      depth.data[static_cast<std::size_t>(v) * k.width + u] = raw;
+    }
+  }
+  return depth;
+}
+
+void expect_depth_near(const FloatImage& gpu, const FloatImage& ref, double tol, const char* what) {
+  ASSERT_EQ(gpu.width, ref.width);
+  ASSERT_EQ(gpu.height, ref.height);
+  int validity_mismatch = 0, value_mismatch = 0;
+  for (std::size_t i = 0; i < gpu.data.size(); ++i) {
+    if ((gpu.data[i] > 0) != (ref.data[i] > 0)) ++validity_mismatch;
+    else if (std::abs(double(gpu.data[i]) - ref.data[i]) > tol) ++value_mismatch;
+  }
+  EXPECT_EQ(validity_mismatch, 0) << what;
+  EXPECT_EQ(value_mismatch, 0) << what;
+}
+
+void expect_vectors_near(const Vec4Image& gpu, const Vec4Image& ref, double tol, const char* what,
+                         double max_validity_mismatch_fraction = 0.0) {
+  ASSERT_EQ(gpu.width, ref.width);
+  ASSERT_EQ(gpu.height, ref.height);
+  int validity_mismatch = 0, value_mismatch = 0, valid = 0;
+  for (std::size_t i = 0; i < gpu.data.size(); ++i) {
+    const bool g = gpu.data[i].w() > 0, r = ref.data[i].w() > 0;
+    valid += r ? 1 : 0;
+    if (g != r) ++validity_mismatch;
+    else if (g && (gpu.data[i] - ref.data[i]).cwiseAbs().maxCoeff() > tol) ++value_mismatch;
+  }
+  EXPECT_GT(valid, 0) << what << ": the test input must produce valid entries";
+  EXPECT_LE(validity_mismatch, max_validity_mismatch_fraction * double(gpu.data.size())) << what;
+  EXPECT_EQ(value_mismatch, 0) << what;
+}
+
+class PreprocessGpuTest : public GpuTest,
+                          public ::testing::WithParamInterface<std::pair<int, int>> {};
+
+TEST_P(PreprocessGpuTest, EachKernelMatchesItsReference) {
+  const auto [wx, wy] = GetParam();
+  const Intrinsics k = test_intrinsics(97, 61);
+  PreprocessConfig config;
+  config.workgroup_x = wx;
+  config.workgroup_y = wy;
+  auto kernels = gpu::Preprocessor::create(context_, config, k);
+  ASSERT_TRUE(kernels.ok()) << kernels.error().describe();
+  auto seq = gpu::CommandSequence::create(context_, kernels->dispatch_count());
+  ASSERT_TRUE(seq.ok()) << seq.error().describe();
+  const DepthImage raw = test_depth(k, 7);
+  ASSERT_TRUE(kernels->upload(raw).ok());
+  ASSERT_TRUE(seq->begin().ok());
+  kernels->record(*seq);
+  auto timings = seq->submit_and_wait();
+  ASSERT_TRUE(timings.ok()) << timings.error().describe();
+  EXPECT_EQ(timings->size(), kernels->dispatch_count());
+  auto gpu = kernels->download();
+  ASSERT_TRUE(gpu.ok()) << gpu.error().describe();
+
+  const FloatImage metres = reference::depth_to_metres(raw, config.min_depth, config.max_depth);
+  expect_depth_near(gpu->raw_depth, metres, 1e-6, "depth_to_metres");
+  expect_depth_near(gpu->depth[0],
+                    reference::bilateral(gpu->raw_depth, config.bilateral_radius,
+                                         config.bilateral_sigma_space, config.bilateral_sigma_depth),
+                    1e-5, "bilateral");
+  for (int level = 0; level < config.levels; ++level) {
+    const auto l = static_cast<std::size_t>(level);
+    if (level > 0) {
+      expect_depth_near(gpu->depth[l],
+                        reference::pyramid_down(gpu->depth[l - 1], config.max_jump_fraction), 1e-5,
+                        "pyramid_down");
+    }
+    expect_vectors_near(gpu->vertices[l], reference::vertex_map(gpu->depth[l], k.at_level(level)),
+                        1e-5, "vertex_map");
+    expect_vectors_near(gpu->normals[l],
+                        reference::normal_map(gpu->vertices[l], config.max_jump_fraction), 1e-4,
+                        "normal_map");
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Workgroups, PreprocessGpuTest,
+                         ::testing::Values(std::pair{16, 16}, std::pair{8, 8}, std::pair{32, 4}));
+
+TEST_F(GpuTest, WholeChainMatchesReferenceChain) {
+  const Intrinsics k = test_intrinsics(161, 117);
+  const PreprocessConfig config;
+  auto kernels = gpu::Preprocessor::create(context_, config, k);
+  ASSERT_TRUE(kernels.ok()) << kernels.error().describe();
+  auto seq = gpu::CommandSequence::create(context_, kernels->dispatch_count());
+  ASSERT_TRUE(seq.ok());
+  const DepthImage raw = test_depth(k, 11);
+  ASSERT_TRUE(kernels->upload(raw).ok());
+  ASSERT_TRUE(seq->begin().ok());
+  kernels->record(*seq);
+  ASSERT_TRUE(seq->submit_and_wait().ok());
+  auto gpu = kernels->download();
+  ASSERT_TRUE(gpu.ok());
+  const PreprocessedFrame ref = reference::preprocess(raw, k, config);
+  ASSERT_EQ(gpu->depth.size(), 3u);
+  for (std::size_t l = 0; l < 3; ++l) {
+    EXPECT_EQ(gpu->depth[l].width, k.at_level(static_cast<int>(l)).width);
+    expect_depth_near(gpu->depth[l], ref.depth[l], 1e-4, "chain depth");
+    expect_vectors_near(gpu->vertices[l], ref.vertices[l], 1e-4, "chain vertices");
+    expect_vectors_near(gpu->normals[l], ref.normals[l], 1e-3, "chain normals", 0.005);
+  }
+}
+
+TEST_F(GpuTest, InvalidPixelsStayInvalidAndNormalsFaceTheCamera) {
+  const Intrinsics k = test_intrinsics(97, 61);
+  auto kernels = gpu::Preprocessor::create(context_, PreprocessConfig{}, k);
+  ASSERT_TRUE(kernels.ok());
+  auto seq = gpu::CommandSequence::create(context_, kernels->dispatch_count());
+  ASSERT_TRUE(seq.ok());
+  const DepthImage raw = test_depth(k, 3);
+  ASSERT_TRUE(kernels->upload(raw).ok());
+  ASSERT_TRUE(seq->begin().ok());
+  kernels->record(*seq);
+  ASSERT_TRUE(seq->submit_and_wait().ok());
+  auto gpu = kernels->download();
+  ASSERT_TRUE(gpu.ok());
+  for (std::size_t i = 0; i < raw.data.size(); ++i) {
+    if (gpu->raw_depth.data[i] == 0) {
+      EXPECT_EQ(gpu->depth[0].data[i], 0.0f);
+      EXPECT_EQ(gpu->normals[0].data[i].w(), 0.0f);
+    }
+  }
+  for (const Vec4Image& normals : gpu->normals) {
+    for (std::size_t i = 0; i < normals.data.size(); ++i) {
+      if (normals.data[i].w() == 0) continue;
+      EXPECT_NEAR(normals.data[i].head<3>().norm(), 1.0, 1e-5);
+    }
+  }
+  // The vertex at a valid pixel faces its normal: n . v < 0.
+  for (std::size_t i = 0; i < gpu->normals[0].data.size(); ++i) {
+    if (gpu->normals[0].data[i].w() == 0) continue;
+    EXPECT_LT(gpu->normals[0].data[i].head<3>().dot(gpu->vertices[0].data[i].head<3>()), 0.0f);
+  }
+}
+
+TEST_F(GpuTest, PyramidDoesNotAverageAcrossDiscontinuities) {
+  // Left half at 1 m, right half at 3 m, split inside a 2x2 block (odd column 5 of 12).
+  Intrinsics k = test_intrinsics(12, 8);
+  DepthImage raw;
+  raw.width = 12;
+  raw.height = 8;
+  raw.data.resize(96);
+  for (int v = 0; v < 8; ++v)
+    for (int u = 0; u < 12; ++u) raw.data[static_cast<std::size_t>(v * 12 + u)] = u <= 4 ? 5000 : 15000;
+  PreprocessConfig config;
+  config.levels = 2;
+  config.bilateral_radius = 0;
+  auto kernels = gpu::Preprocessor::create(context_, config, k);
+  ASSERT_TRUE(kernels.ok()) << kernels.error().describe();
+  auto seq = gpu::CommandSequence::create(context_, kernels->dispatch_count());
+  ASSERT_TRUE(seq.ok());
+  ASSERT_TRUE(kernels->upload(raw).ok());
+  ASSERT_TRUE(seq->begin().ok());
+  kernels->record(*seq);
+  ASSERT_TRUE(seq->submit_and_wait().ok());
+  auto gpu = kernels->download();
+  ASSERT_TRUE(gpu.ok());
+  const FloatImage& half = gpu->depth[1];
+  for (int v = 0; v < half.height; ++v) {
+    EXPECT_FLOAT_EQ(half.at(1, v), 1.0f);
+    EXPECT_FLOAT_EQ(half.at(2, v), 1.0f) << "the block straddling the edge keeps its near side";
+    EXPECT_FLOAT_EQ(half.at(3, v), 3.0f);
+  }
+}
+
+TEST_F(GpuTest, WrongImageSizeIsAnError) {
+  const Intrinsics k = test_intrinsics(97, 61);
+  auto kernels = gpu::Preprocessor::create(context_, PreprocessConfig{}, k);
+  ASSERT_TRUE(kernels.ok());
+  const DepthImage raw = test_depth(test_intrinsics(96, 61), 1);
+  const Status status = kernels->upload(raw);
+  ASSERT_FALSE(status.ok());
+  EXPECT_EQ(status.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_NE(status.error().message.find("96x61"), std::string::npos) << status.error().message;
+}
+
+TEST(DepthPreprocessorFacade, ProcessesWithValidationAndReportsTimings) {
+  std::string reason;
+  if (!test::gpu_context(&reason)) GTEST_SKIP() << reason;
+  const Intrinsics k = test_intrinsics(97, 61);
+  DeviceOptions device;
+  device.validation = true;
+  auto pre = DepthPreprocessor::create(PreprocessConfig{}, k, device);
+  ASSERT_TRUE(pre.ok()) << pre.error().describe();
+  auto frame = pre->process(test_depth(k, 5));
+  ASSERT_TRUE(frame.ok()) << frame.error().describe();
+  EXPECT_EQ(frame->depth.size(), 3u);
+  EXPECT_EQ(frame->timings.size(), 2u + 2u + 6u);
+  if (pre->device().timestamps) {
+    for (const KernelTiming& t : frame->timings) EXPECT_GE(t.gpu_ms, 0.0) << t.kernel;
+  }
+  EXPECT_EQ(pre->validation_error_count(), 0u);
+}
+
+}  // namespace
+}  // namespace imufusion
