@@ -1,0 +1,107 @@
+// The Vulkan runtime: device listing and selection, failures as values, and the validation layer
+// actually reporting misuse (so the GPU tests' "no validation errors" check can fail).
+
+#include <cstdlib>
+
+#include <gtest/gtest.h>
+
+#include "gpu/buffer.hpp"
+#include "gpu/context.hpp"
+#include "gpu/pipeline.hpp"
+#include "gpu_test_env.hpp"
+#include "imufusion/device.hpp"
+
+namespace imufusion {
+namespace {
+
+using test::GpuTest;
+
+TEST_F(GpuTest, ListsTheDeviceItRunsOn) {
+  auto devices = list_devices();
+  ASSERT_TRUE(devices.ok()) << devices.error().describe();
+  ASSERT_FALSE(devices->empty());
+  bool found = false;
+  for (const DeviceInfo& d : *devices) found |= d.name == context_->info().name;
+  EXPECT_TRUE(found);
+}
+
+TEST_F(GpuTest, SelectsByNameSubstringAndIndex) {
+  const DeviceInfo& info = context_->info();
+  DeviceOptions by_name;
+  by_name.selector = info.name.substr(0, 4);
+  auto a = gpu::Context::create(by_name);
+  ASSERT_TRUE(a.ok()) << a.error().describe();
+  EXPECT_EQ((*a)->info().name, info.name);
+  DeviceOptions by_index;
+  by_index.selector = std::to_string(info.index);
+  auto b = gpu::Context::create(by_index);
+  ASSERT_TRUE(b.ok()) << b.error().describe();
+  EXPECT_EQ((*b)->info().index, info.index);
+}
+
+TEST_F(GpuTest, UnknownSelectorIsANoDeviceErrorListingTheDevices) {
+  DeviceOptions options;
+  options.selector = "no-such-device-xyz";
+  auto context = gpu::Context::create(options);
+  ASSERT_FALSE(context.ok());
+  EXPECT_EQ(context.error().code, ErrorCode::kNoDevice);
+  EXPECT_NE(context.error().message.find("no-such-device-xyz"), std::string::npos);
+  EXPECT_NE(context.error().message.find(context_->info().name), std::string::npos);
+}
+
+TEST_F(GpuTest, EnvironmentVariableChoosesTheDevice) {
+  ::setenv("IMUFUSION_DEVICE", "no-such-device-xyz", 1);
+  auto context = gpu::Context::create({});
+  ::unsetenv("IMUFUSION_DEVICE");
+  ASSERT_FALSE(context.ok());
+  EXPECT_EQ(context.error().code, ErrorCode::kNoDevice);
+}
+
+TEST_F(GpuTest, ImpossibleAllocationIsAnOutOfMemoryError) {
+  // Without validation: the request itself is invalid usage, which is the point of the test.
+  auto plain = gpu::Context::create({});
+  ASSERT_TRUE(plain.ok());
+  auto buffer = gpu::Buffer::create(*plain, VkDeviceSize{1} << 50);
+  ASSERT_FALSE(buffer.ok());
+  EXPECT_EQ(buffer.error().code, ErrorCode::kOutOfDeviceMemory) << buffer.error().describe();
+  EXPECT_NE(buffer.error().vk_result, 0);
+}
+
+TEST_F(GpuTest, BufferRoundTripAndRangeChecks) {
+  auto buffer = gpu::Buffer::create(context_, 10);  // rounded up to 12 bytes
+  ASSERT_TRUE(buffer.ok());
+  EXPECT_EQ(buffer->size(), 12u);
+  const std::vector<float> values{1.5f, -2.0f, 3.25f};
+  ASSERT_TRUE(buffer->upload(std::span<const float>(values)).ok());
+  auto back = buffer->download_as<float>(3);
+  ASSERT_TRUE(back.ok());
+  EXPECT_EQ(*back, values);
+  EXPECT_FALSE(buffer->upload(values.data(), 16).ok());
+  EXPECT_FALSE(buffer->download(nullptr, 4, 12).ok());
+}
+
+TEST_F(GpuTest, UnknownShaderIsAnError) {
+  auto pipeline = gpu::ComputePipeline::create(context_, {"no_such_shader", 1, 0, 8, 8});
+  ASSERT_FALSE(pipeline.ok());
+  EXPECT_NE(pipeline.error().message.find("no_such_shader"), std::string::npos);
+}
+
+TEST(ValidationLayer, ReportsInvalidUsage) {
+  DeviceOptions options;
+  options.validation = true;
+  auto context = gpu::Context::create(options);
+  if (!context.ok()) GTEST_SKIP() << context.error().describe();
+  if (!(*context)->validation_enabled()) GTEST_SKIP() << "vulkan-validationlayers not installed";
+  // A buffer of size 0 violates VUID-VkBufferCreateInfo-size-00912.
+  VkBufferCreateInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+  info.size = 0;
+  info.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+  VkBuffer buffer = VK_NULL_HANDLE;
+  vkCreateBuffer((*context)->device(), &info, nullptr, &buffer);
+  if (buffer != VK_NULL_HANDLE) vkDestroyBuffer((*context)->device(), buffer, nullptr);
+  EXPECT_GT((*context)->validation_error_count(), 0u);
+}
+
+}  // namespace
+}  // namespace imufusion
