@@ -30,9 +30,9 @@ struct AccelerometerSample {
 
 /// One line of depth.txt or rgb.txt.
 struct ImageIndexEntry {
-  double timestamp = 0;         // seconds
-  std::string name;             // as written in the index, relative to the sequence directory
-  std::filesystem::path path;   // the sequence directory joined with `name`
+  double timestamp = 0;        // seconds
+  std::string name;            // as written in the index, relative to the sequence directory
+  std::filesystem::path path;  // the sequence directory joined with `name`
 };
 
 /// Everything a sequence says about itself, parsed at open.

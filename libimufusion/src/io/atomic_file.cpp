@@ -36,9 +36,8 @@ Status write_file_atomically(const std::filesystem::path& path,
     if (file == nullptr && errno != EEXIST) break;
   }
   if (file == nullptr) {
-    return make_error(ErrorCode::kIoError,
-                      "cannot create " + temp.string() + " to write " + path.string() + ": " +
-                          errno_text());
+    return make_error(ErrorCode::kIoError, "cannot create " + temp.string() + " to write " +
+                                               path.string() + ": " + errno_text());
   }
   Status status = write(file);
   if (status.ok() && std::fflush(file) != 0) {
@@ -61,9 +60,9 @@ Status write_file_atomically(const std::filesystem::path& path,
 
 Status write_text_atomically(const std::filesystem::path& path, std::string_view content) {
   return write_file_atomically(path, [&](std::FILE* file) -> Status {
-    if (!content.empty() && std::fwrite(content.data(), 1, content.size(), file) != content.size()) {
-      return make_error(ErrorCode::kIoError,
-                        "cannot write " + path.string() + ": " + errno_text());
+    if (!content.empty() &&
+        std::fwrite(content.data(), 1, content.size(), file) != content.size()) {
+      return make_error(ErrorCode::kIoError, "cannot write " + path.string() + ": " + errno_text());
     }
     return {};
   });

@@ -33,9 +33,8 @@ Result<ColorImage> decode_jpeg(const std::vector<std::uint8_t>& bytes,
                                           &height, &channels_in_file, 3);
   if (pixels == nullptr) {
     const char* reason = stbi_failure_reason();
-    return make_error(ErrorCode::kParseError,
-                      path.string() + ": corrupt or unsupported JPEG (" +
-                          (reason != nullptr ? reason : "unknown") + ")");
+    return make_error(ErrorCode::kParseError, path.string() + ": corrupt or unsupported JPEG (" +
+                                                  (reason != nullptr ? reason : "unknown") + ")");
   }
   ColorImage image;
   image.width = width;

@@ -43,20 +43,26 @@ void read_from_memory(png_structp png, png_bytep out, png_size_t length) {
 
 const char* color_type_name(int color_type) {
   switch (color_type) {
-    case PNG_COLOR_TYPE_GRAY: return "grayscale";
-    case PNG_COLOR_TYPE_GRAY_ALPHA: return "grayscale+alpha";
-    case PNG_COLOR_TYPE_PALETTE: return "palette";
-    case PNG_COLOR_TYPE_RGB: return "RGB";
-    case PNG_COLOR_TYPE_RGB_ALPHA: return "RGBA";
-    default: return "unknown";
+    case PNG_COLOR_TYPE_GRAY:
+      return "grayscale";
+    case PNG_COLOR_TYPE_GRAY_ALPHA:
+      return "grayscale+alpha";
+    case PNG_COLOR_TYPE_PALETTE:
+      return "palette";
+    case PNG_COLOR_TYPE_RGB:
+      return "RGB";
+    case PNG_COLOR_TYPE_RGB_ALPHA:
+      return "RGBA";
+    default:
+      return "unknown";
   }
 }
 
 // The setjmp-protected steps. Each returns false after a libpng error (message in the state).
 // Nothing in these frames has a destructor, and no local is modified after setjmp.
 
-bool png_read_header_step(png_structp png, png_infop info, png_uint_32* width,
-                          png_uint_32* height, int* bit_depth, int* color_type) {
+bool png_read_header_step(png_structp png, png_infop info, png_uint_32* width, png_uint_32* height,
+                          int* bit_depth, int* color_type) {
   if (setjmp(png_jmpbuf(png))) return false;
   png_read_info(png, info);
   png_get_IHDR(png, info, width, height, bit_depth, color_type, nullptr, nullptr, nullptr);
@@ -132,8 +138,8 @@ class PngReader {
 };
 
 Error corrupt(const std::filesystem::path& path, const PngReader& reader) {
-  return make_error(ErrorCode::kParseError, path.string() + ": corrupt or truncated PNG (" +
-                                                reader.message() + ")");
+  return make_error(ErrorCode::kParseError,
+                    path.string() + ": corrupt or truncated PNG (" + reader.message() + ")");
 }
 
 Status check_size(const std::filesystem::path& path, png_uint_32 width, png_uint_32 height) {
@@ -207,10 +213,9 @@ Result<DepthImage> decode_depth_png(const std::vector<std::uint8_t>& bytes,
   auto header = decode_header(reader, path);
   if (!header.ok()) return header.error();
   if (header->color_type != PNG_COLOR_TYPE_GRAY) {
-    return make_error(ErrorCode::kUnsupported,
-                      path.string() + ": not single-channel (" +
-                          color_type_name(header->color_type) +
-                          "); a depth image must be 16-bit grayscale");
+    return make_error(ErrorCode::kUnsupported, path.string() + ": not single-channel (" +
+                                                   color_type_name(header->color_type) +
+                                                   "); a depth image must be 16-bit grayscale");
   }
   if (header->bit_depth != 16) {
     return make_error(ErrorCode::kUnsupported, path.string() + ": wrong bit depth " +
@@ -225,8 +230,8 @@ Result<DepthImage> decode_depth_png(const std::vector<std::uint8_t>& bytes,
   image.data.resize(static_cast<std::size_t>(image.width) * image.height);
   std::vector<png_bytep> rows(static_cast<std::size_t>(image.height));
   for (int v = 0; v < image.height; ++v) {
-    rows[v] = reinterpret_cast<png_bytep>(image.data.data() + static_cast<std::size_t>(v) *
-                                                                  image.width);
+    rows[v] =
+        reinterpret_cast<png_bytep>(image.data.data() + static_cast<std::size_t>(v) * image.width);
   }
   if (!png_read_rows_step(reader.png(), rows.data())) return corrupt(path, reader);
   return image;
@@ -238,8 +243,7 @@ Result<ColorImage> decode_color_png(const std::vector<std::uint8_t>& bytes,
   PngReader reader(bytes);
   auto header = decode_header(reader, path);
   if (!header.ok()) return header.error();
-  if (!png_setup_color_step(reader.png(), reader.info(), header->bit_depth,
-                            header->color_type)) {
+  if (!png_setup_color_step(reader.png(), reader.info(), header->bit_depth, header->color_type)) {
     return corrupt(path, reader);
   }
   const std::size_t row_bytes = static_cast<std::size_t>(header->width) * 3;

@@ -70,9 +70,8 @@ Result<double> parse_finite(std::string_view field, const std::filesystem::path&
   return value;
 }
 
-Result<long long> parse_integer(std::string_view field, const std::filesystem::path& path,
-                                int line, std::string_view what, long long min_value,
-                                long long max_value) {
+Result<long long> parse_integer(std::string_view field, const std::filesystem::path& path, int line,
+                                std::string_view what, long long min_value, long long max_value) {
   long long value = 0;
   const auto [end, ec] = std::from_chars(field.data(), field.data() + field.size(), value);
   if (ec != std::errc() || end != field.data() + field.size() || field.empty()) {
@@ -80,10 +79,10 @@ Result<long long> parse_integer(std::string_view field, const std::filesystem::p
                                                   std::string(field) + "' is not an integer");
   }
   if (value < min_value || value > max_value) {
-    return make_error(ErrorCode::kParseError,
-                      where(path, line) + std::string(what) + " " + std::string(field) +
-                          " is outside [" + std::to_string(min_value) + ", " +
-                          std::to_string(max_value) + "]");
+    return make_error(ErrorCode::kParseError, where(path, line) + std::string(what) + " " +
+                                                  std::string(field) + " is outside [" +
+                                                  std::to_string(min_value) + ", " +
+                                                  std::to_string(max_value) + "]");
   }
   return value;
 }

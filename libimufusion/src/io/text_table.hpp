@@ -31,9 +31,8 @@ Result<double> parse_finite(std::string_view field, const std::filesystem::path&
                             std::string_view what);
 
 /// Parses a whole decimal integer in [min_value, max_value].
-Result<long long> parse_integer(std::string_view field, const std::filesystem::path& path,
-                                int line, std::string_view what, long long min_value,
-                                long long max_value);
+Result<long long> parse_integer(std::string_view field, const std::filesystem::path& path, int line,
+                                std::string_view what, long long min_value, long long max_value);
 
 /// Fails unless `line` has exactly `count` fields; the message shows the expected layout.
 Status expect_fields(const TextLine& line, std::size_t count, const std::filesystem::path& path,

@@ -38,12 +38,12 @@ Result<Trajectory> read_trajectory(const std::filesystem::path& path) {
                                        : " is not after the previous line's " +
                                              io::format_exact(trajectory.back().timestamp)));
     }
-    Eigen::Quaterniond q(values[6], values[3], values[4], values[5]);
+    Eigen::Quaterniond q(values[7], values[4], values[5], values[6]);
     const double norm = q.norm();
     if (std::abs(norm - 1.0) > kQuaternionNormTolerance) {
-      return make_error(ErrorCode::kParseError,
-                        io::where(path, line.number) + "quaternion (qx qy qz qw) has norm " +
-                            std::to_string(norm) + ", expected 1");
+      return make_error(ErrorCode::kParseError, io::where(path, line.number) +
+                                                    "quaternion (qx qy qz qw) has norm " +
+                                                    std::to_string(norm) + ", expected 1");
     }
     q.normalize();
     StampedPose pose;
@@ -69,8 +69,8 @@ Status write_trajectory(const std::filesystem::path& path, const Trajectory& tra
   for (std::size_t i = 0; i < trajectory.size(); ++i) {
     const StampedPose& pose = trajectory[i];
     if (!std::isfinite(pose.timestamp) || !pose.T_world_camera.matrix().allFinite()) {
-      return make_error(ErrorCode::kInvalidArgument, path.string() + ": pose " +
-                                                         std::to_string(i) + " is not finite");
+      return make_error(ErrorCode::kInvalidArgument,
+                        path.string() + ": pose " + std::to_string(i) + " is not finite");
     }
   }
   std::string content;
