@@ -1,0 +1,182 @@
+// CPU ray casting of a Scene into depth and colour images, and the Kinect-like depth sensor model.
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <thread>
+
+#include "imufusion/synth.hpp"
+#include "synth/random.hpp"
+#include "synth/scene_internal.hpp"
+
+namespace imufusion::synth {
+
+namespace {
+
+/// Everything the sensor model and shading need per pixel.
+struct PixelHit {
+  double z = 0.0;           // metres along the optical axis, 0 = nothing hit
+  float cos_incidence = 0;  // |cos| of the angle between the ray and the surface normal
+  int primitive = -1;
+  Eigen::Vector3f shade = Eigen::Vector3f::Zero();  // shaded colour in [0, 1]
+};
+
+// A light near the ceiling, world frame (metres); Lambertian shading plus an ambient term.
+const Eigen::Vector3d kLightPosition(3.0, 2.5, 2.8);
+constexpr float kAmbient = 0.35f;
+
+Eigen::Vector3f shade(const RayHit& hit) {
+  const Eigen::Vector3d to_light = (kLightPosition - hit.point).normalized();
+  const float diffuse = static_cast<float>(std::max(0.0, hit.normal.dot(to_light)));
+  return hit.albedo * (kAmbient + (1.0f - kAmbient) * diffuse);
+}
+
+int render_threads(int rows) {
+  const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
+  return std::clamp(static_cast<int>(std::min(hw, 8u)), 1, std::max(1, rows / 8));
+}
+
+/// Casts one ray per pixel through the pixel centre. Rows are split over threads; the result
+/// does not depend on the split (no randomness here).
+std::vector<PixelHit> cast_pixels(const Scene& scene, const Eigen::Isometry3d& T_world_camera,
+                                  const Intrinsics& k, bool with_shade) {
+  const PreparedScene prepared = prepare(scene);
+  std::vector<PixelHit> pixels(static_cast<std::size_t>(k.width) * k.height);
+  const Eigen::Matrix3d R = T_world_camera.linear();
+  const Eigen::Vector3d origin = T_world_camera.translation();
+  auto rows = [&](int v_begin, int v_end) {
+    for (int v = v_begin; v < v_end; ++v) {
+      for (int u = 0; u < k.width; ++u) {
+        // Camera ray with unit z: the ray parameter of a hit is its z-depth.
+        const Eigen::Vector3d d_cam((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0);
+        const Eigen::Vector3d d = R * d_cam;
+        const std::optional<RayHit> hit = intersect(prepared, origin, d);
+        if (!hit) continue;
+        PixelHit& p = pixels[static_cast<std::size_t>(v) * k.width + u];
+        p.z = hit->t;
+        p.cos_incidence = static_cast<float>(std::abs(hit->normal.dot(d)) / d.norm());
+        p.primitive = hit->primitive;
+        if (with_shade) p.shade = shade(*hit);
+      }
+    }
+  };
+  const int threads = render_threads(k.height);
+  std::vector<std::thread> workers;
+  for (int i = 1; i < threads; ++i) {
+    workers.emplace_back(rows, k.height * i / threads, k.height * (i + 1) / threads);
+  }
+  rows(0, k.height / threads);
+  for (std::thread& w : workers) w.join();
+  return pixels;
+}
+
+/// A pixel next to a depth discontinuity: a 4-neighbour on another surface whose depth differs
+/// by more than max(2 cm, 3% of z). Contacts (a box on the floor) are continuous and kept.
+bool at_depth_edge(const std::vector<PixelHit>& px, int w, int h, int u, int v) {
+  const PixelHit& p = px[static_cast<std::size_t>(v) * w + u];
+  const double threshold = std::max(0.02, 0.03 * p.z);
+  const int du[4] = {1, -1, 0, 0};
+  const int dv[4] = {0, 0, 1, -1};
+  for (int i = 0; i < 4; ++i) {
+    const int nu = u + du[i], nv = v + dv[i];
+    if (nu < 0 || nv < 0 || nu >= w || nv >= h) continue;
+    const PixelHit& n = px[static_cast<std::size_t>(nv) * w + nu];
+    if (n.primitive == p.primitive) continue;
+    if (n.primitive < 0 || std::abs(n.z - p.z) > threshold) return true;
+  }
+  return false;
+}
+
+DepthImage apply_sensor_model(const std::vector<PixelHit>& px, const Intrinsics& k,
+                              const SensorModel& model, std::uint64_t seed) {
+  DepthImage depth;
+  depth.width = k.width;
+  depth.height = k.height;
+  depth.depth_scale = model.depth_scale;
+  depth.data.assign(px.size(), 0);
+  const float min_cos =
+      static_cast<float>(std::cos(model.max_incidence_deg * std::numbers::pi / 180.0));
+  Rng rng(seed);
+  for (int v = 0; v < k.height; ++v) {
+    for (int u = 0; u < k.width; ++u) {
+      const std::size_t i = static_cast<std::size_t>(v) * k.width + u;
+      // One draw per pixel whatever happens to it, so that noise stays aligned across images.
+      const double noise = rng.normal();
+      const PixelHit& p = px[i];
+      if (p.primitive < 0 || p.z < model.min_depth || p.z > model.max_depth) continue;
+      if (p.cos_incidence < min_cos) continue;
+      if (model.edge_dropout && at_depth_edge(px, k.width, k.height, u, v)) continue;
+      const double z = model.depth_noise ? p.z + noise * depth_noise_sigma(p.z) : p.z;
+      const double raw = std::round(z * model.depth_scale);
+      depth.data[i] = static_cast<std::uint16_t>(std::clamp(raw, 1.0, 65535.0));
+    }
+  }
+  return depth;
+}
+
+ColorImage to_color(const std::vector<PixelHit>& px, const Intrinsics& k) {
+  ColorImage color;
+  color.width = k.width;
+  color.height = k.height;
+  color.data.resize(px.size() * 3);
+  for (std::size_t i = 0; i < px.size(); ++i) {
+    for (int c = 0; c < 3; ++c) {
+      const float value = std::clamp(px[i].shade[c], 0.0f, 1.0f) * 255.0f;
+      color.data[3 * i + c] = static_cast<std::uint8_t>(std::lround(value));
+    }
+  }
+  return color;
+}
+
+}  // namespace
+
+Intrinsics default_intrinsics(int width, int height) {
+  Intrinsics k;
+  const double sx = width / 640.0, sy = height / 480.0;
+  k.fx = 525.0 * sx;
+  k.fy = 525.0 * sy;
+  // Scale about the image corner in pixel-edge coordinates (centres at integer + 0.5 edges).
+  k.cx = (319.5 + 0.5) * sx - 0.5;
+  k.cy = (239.5 + 0.5) * sy - 0.5;
+  k.width = width;
+  k.height = height;
+  return k;
+}
+
+double depth_noise_sigma(double z) { return 0.0012 + 0.0019 * (z - 0.4) * (z - 0.4); }
+
+FloatImage raycast_depth(const Scene& scene, const Eigen::Isometry3d& T_world_camera,
+                         const Intrinsics& intrinsics) {
+  const std::vector<PixelHit> px = cast_pixels(scene, T_world_camera, intrinsics, false);
+  FloatImage image;
+  image.width = intrinsics.width;
+  image.height = intrinsics.height;
+  image.data.resize(px.size());
+  for (std::size_t i = 0; i < px.size(); ++i) image.data[i] = static_cast<float>(px[i].z);
+  return image;
+}
+
+DepthImage render_depth(const Scene& scene, const Eigen::Isometry3d& T_world_camera,
+                        const Intrinsics& intrinsics, const SensorModel& model,
+                        std::uint64_t seed) {
+  return apply_sensor_model(cast_pixels(scene, T_world_camera, intrinsics, false), intrinsics,
+                            model, seed);
+}
+
+ColorImage render_color(const Scene& scene, const Eigen::Isometry3d& T_world_camera,
+                        const Intrinsics& intrinsics) {
+  return to_color(cast_pixels(scene, T_world_camera, intrinsics, true), intrinsics);
+}
+
+RenderedFrame render_frame(const Scene& scene, const Eigen::Isometry3d& T_world_camera,
+                           const Intrinsics& intrinsics, const SensorModel& model,
+                           std::uint64_t seed, bool with_color) {
+  const std::vector<PixelHit> px = cast_pixels(scene, T_world_camera, intrinsics, with_color);
+  RenderedFrame frame;
+  frame.depth = apply_sensor_model(px, intrinsics, model, seed);
+  if (with_color) frame.color = to_color(px, intrinsics);
+  return frame;
+}
+
+}  // namespace imufusion::synth
