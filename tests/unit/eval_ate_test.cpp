@@ -147,6 +147,15 @@ TEST(EvalAte, DisjointSpansAreCalledOutAsAPossibleClockOffset) {
   ASSERT_FALSE(ate.ok());
   EXPECT_NE(ate.error().message.find("only 0 poses matched"), std::string::npos);
   EXPECT_NE(ate.error().message.find("clock offset"), std::string::npos) << ate.error().message;
+
+  // The offset that undoes the shift pairs them all; a wrong one is named in the message.
+  const auto undone = evaluate_ate(gt, est, {.max_difference_s = 0.02, .time_offset_s = 100.0});
+  ASSERT_TRUE(undone.ok()) << undone.error().describe();
+  EXPECT_EQ(undone->matches.size(), 30u);
+  const auto wrong = evaluate_ate(gt, est, {.max_difference_s = 0.02, .time_offset_s = 50.0});
+  ASSERT_FALSE(wrong.ok());
+  EXPECT_NE(wrong.error().message.find("shifted by +50 s"), std::string::npos)
+      << wrong.error().message;
 }
 
 TEST(EvalAte, EmptyTrajectoriesAreErrors) {

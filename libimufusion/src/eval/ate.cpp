@@ -78,8 +78,15 @@ Result<AteResult> evaluate_ate(const Trajectory& gt, const Trajectory& est,
   if (matches->size() < kMinAteMatches) {
     char within[64];
     std::snprintf(within, sizeof(within), " within %g s", options.max_difference_s);
-    return make_error(ErrorCode::kInvalidArgument,
-                      too_few_matches(matches->size(), gt, est, within));
+    std::string message = too_few_matches(matches->size(), gt, est, within);
+    if (options.time_offset_s != 0.0) {
+      char offset[96];
+      std::snprintf(offset, sizeof(offset),
+                    " (spans as in the files; estimate times were shifted by %+g s for matching)",
+                    options.time_offset_s);
+      message += offset;
+    }
+    return make_error(ErrorCode::kInvalidArgument, message);
   }
   return align_and_measure(gt, est, *matches);
 }
