@@ -166,14 +166,14 @@ void print_stats_line(const char* label, const ErrorStats& stats, double scale, 
             << format(pattern, stats.max * scale) << " " << unit << "\n";
 }
 
-void print_rpe(const char* title, const RpeResult& rpe, double tolerance_s) {
+void print_rpe(const std::string& title, const RpeResult& rpe) {
   const std::string step = step_name(rpe.options);
   if (rpe.pairs.empty()) {
     std::cout << title << ": no pose pairs " << format("%g", rpe.options.delta)
               << (rpe.options.unit == DeltaUnit::kFrames ? " frame(s)" : " s")
               << " apart (trajectory too short";
     if (rpe.options.unit == DeltaUnit::kSeconds) {
-      std::cout << ", or no partner within " << format("%g", tolerance_s) << " s";
+      std::cout << ", or no partner within " << format("%g", rpe.options.time_tolerance_s) << " s";
     }
     std::cout << ")\n";
     return;
@@ -203,8 +203,8 @@ void print_summary(const Arguments& args, const TrajectoryMetrics& m) {
   const std::string second_title =
       "RPE per " +
       (m.rpe_second.options.delta == 1.0 ? std::string("second") : step_name(m.rpe_second.options));
-  print_rpe(frame_title.c_str(), m.rpe_frame, m.rpe_frame.options.time_tolerance_s);
-  print_rpe(second_title.c_str(), m.rpe_second, m.rpe_second.options.time_tolerance_s);
+  print_rpe(frame_title, m.rpe_frame);
+  print_rpe(second_title, m.rpe_second);
 }
 
 }  // namespace
