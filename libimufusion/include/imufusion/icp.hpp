@@ -1,0 +1,143 @@
+#pragma once
+// Rigid point-to-plane ICP on weighted projective correspondences, as in KinectFusion and in
+// Niessner, Dai and Fisher (2014): the GPU reduces the normal equations, the host solves the 6x6
+// system by SVD, iterates coarse to fine, and judges the result from r, n, sum(w) and kappa.
+//
+// Frames: the current frame's camera is "cur", the reference's (the previous frame, or the
+// model raycast at a predicted pose) is "ref". ICP estimates T_ref_cur (cur -> ref coordinates).
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "imufusion/device.hpp"
+#include "imufusion/preprocess.hpp"
+#include "imufusion/result.hpp"
+#include "imufusion/types.hpp"
+
+namespace imufusion {
+
+/// The weighted normal equations of one association pass (sums over accepted pairs):
+/// AtA = sum w a a^T, Atb = sum w a b, btb = sum w b^2 (m^2), inliers = number of pairs,
+/// weight_sum = sum w; valid_pixels = current pixels with a vertex and a normal.
+struct NormalEquations {
+  Eigen::Matrix<double, 6, 6> AtA = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 1> Atb = Eigen::Matrix<double, 6, 1>::Zero();
+  double btb = 0;
+  std::uint64_t inliers = 0;
+  double weight_sum = 0;
+  std::uint64_t valid_pixels = 0;
+};
+
+/// Thresholds of the reliable / unreliable decision. Defaults: see bench/README.md for how they
+/// were chosen from synthetic scans.
+struct IcpReliabilityThresholds {
+  double max_condition = 150.0;          // kappa = sigma_max / sigma_min of AtA
+  double max_residual_per_weight = 1.5e-5;  // r / sum(w), m^2
+  double min_inlier_fraction = 0.25;     // inliers / valid pixels of the current frame
+  std::uint64_t min_inliers = 300;
+};
+
+struct IcpConfig {
+  /// Gauss-Newton iterations allowed per pyramid level, coarsest last (level 0 = full size).
+  std::vector<int> iterations_per_level = {10, 5, 4};
+  int max_total_iterations = 30;     // cap over all levels (1 = the paper's IMU setting)
+  /// Correspondence rejection per level: point distance (m) and normal angle (deg).
+  std::vector<float> max_distance = {0.10f, 0.15f, 0.20f};
+  std::vector<float> max_normal_angle_deg = {20.f, 25.f, 30.f};
+  /// Convergence: stop a level when the update is below both (rad, m).
+  double converged_rotation = 1e-5;
+  double converged_translation = 1e-5;
+  IcpReliabilityThresholds reliability;
+
+  Status validate(int levels) const;
+};
+
+/// ICP quality, from the last Gauss-Newton step at the finest level run.
+struct IcpQuality {
+  double residual = 0;            // r = sum w (a.x - b)^2 at the solution x, m^2
+  double residual_per_inlier = 0; // r / n
+  double residual_per_weight = 0; // r / sum(w)
+  std::uint64_t inliers = 0;      // n
+  double inlier_fraction = 0;     // n / valid pixels of the current frame
+  double weight_sum = 0;          // sum(w)
+  double condition = 0;           // kappa = sigma_max / sigma_min of AtA (inf when singular)
+  int iterations = 0;             // Gauss-Newton steps run, all levels
+  bool converged = false;         // the finest level's update fell below the thresholds
+};
+
+struct IcpResult {
+  Eigen::Isometry3d T_ref_cur = Eigen::Isometry3d::Identity();  // always finite
+  IcpQuality quality;
+  bool reliable = false;
+  /// Why the result is unreliable ("condition 2.1e4 > 150", "no valid pixels"), empty if reliable.
+  std::string reason;
+};
+
+/// Evaluates the normal equations for a pose; the GPU (or the CPU reference) behind it.
+class NormalEquationSource {
+ public:
+  virtual ~NormalEquationSource() = default;
+  virtual int levels() const = 0;
+  virtual Result<NormalEquations> evaluate(int level, const Eigen::Isometry3d& T_ref_cur,
+                                           float max_distance, float min_normal_cos) = 0;
+};
+
+/// One Gauss-Newton step of the linearized system: x (alpha, beta, gamma, tx, ty, tz) from the
+/// SVD of AtA, the residual at x, and the condition number. `solvable` is false for an empty or
+/// non-finite system.
+struct IcpStep {
+  Eigen::Matrix<double, 6, 1> x = Eigen::Matrix<double, 6, 1>::Zero();
+  double residual = 0;
+  double condition = 0;
+  bool solvable = false;
+};
+IcpStep solve_icp_step(const NormalEquations& eq);
+
+/// The incremental transform of x: rotation exp([alpha, beta, gamma]) (exact, so it stays
+/// orthonormal), translation (tx, ty, tz).
+Eigen::Isometry3d icp_increment(const Eigen::Matrix<double, 6, 1>& x);
+
+/// The reliable / unreliable decision on a quality; the reason when unreliable.
+bool judge_icp(const IcpQuality& quality, const IcpReliabilityThresholds& thresholds,
+               std::string* reason);
+
+/// Coarse-to-fine Gauss-Newton from `T_ref_cur_init`. Never returns a non-finite pose: on
+/// failure the result is unreliable and the pose is the initial one (or identity if that is
+/// not finite).
+Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
+                          const Eigen::Isometry3d& T_ref_cur_init);
+
+/// GPU ICP between depth frames: preprocesses a reference and a current frame on the device and
+/// aligns them. The reference is a depth image seen from the reference camera (the previous frame
+/// for frame-to-frame tracking, or a rendering of the model at a predicted pose).
+class IcpTracker {
+ public:
+  static Result<IcpTracker> create(const IcpConfig& icp, const PreprocessConfig& preprocess,
+                                   const Intrinsics& intrinsics, const DeviceOptions& device = {});
+  ~IcpTracker();
+  IcpTracker(IcpTracker&&) noexcept;
+  IcpTracker& operator=(IcpTracker&&) noexcept;
+
+  Status set_reference(const DepthImage& depth);
+  /// Aligns `depth` to the reference, starting at T_ref_cur_init. `timings` collects the GPU time
+  /// of every association and reduction dispatch.
+  Result<IcpResult> track(const DepthImage& depth, const Eigen::Isometry3d& T_ref_cur_init,
+                          std::vector<KernelTiming>* timings = nullptr);
+  /// Makes the last tracked frame the reference (frame-to-frame tracking).
+  void swap_reference();
+
+  const DeviceInfo& device() const;
+  std::uint32_t validation_error_count() const;
+
+ private:
+  struct Impl;
+  explicit IcpTracker(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace imufusion

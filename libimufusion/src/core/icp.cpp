@@ -1,0 +1,160 @@
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include <Eigen/SVD>
+
+#include "imufusion/icp.hpp"
+
+namespace imufusion {
+namespace {
+
+bool finite_pose(const Eigen::Isometry3d& T) { return T.matrix().allFinite(); }
+
+std::string format(double value) {
+  std::ostringstream out;
+  out.precision(3);
+  out << value;
+  return out.str();
+}
+
+}  // namespace
+
+Status IcpConfig::validate(int levels) const {
+  auto bad = [](const std::string& what) { return make_error(ErrorCode::kInvalidArgument, what); };
+  const auto n = static_cast<std::size_t>(levels);
+  if (iterations_per_level.size() < n || max_distance.size() < n ||
+      max_normal_angle_deg.size() < n) {
+    return bad("ICP needs iterations, max_distance and max_normal_angle_deg for each of the " +
+               std::to_string(levels) + " pyramid levels");
+  }
+  if (max_total_iterations < 1 || max_total_iterations > 100)
+    return bad("max_total_iterations must be 1..100, got " + std::to_string(max_total_iterations));
+  for (std::size_t l = 0; l < n; ++l) {
+    if (iterations_per_level[l] < 0) return bad("negative ICP iteration count");
+    if (!(max_distance[l] > 0)) return bad("ICP max_distance must be positive");
+    if (!(max_normal_angle_deg[l] > 0 && max_normal_angle_deg[l] < 90))
+      return bad("ICP max_normal_angle_deg must be in (0, 90)");
+  }
+  if (iterations_per_level[0] < 1) return bad("ICP must run at least one iteration at level 0");
+  return {};
+}
+
+IcpStep solve_icp_step(const NormalEquations& eq) {
+  IcpStep step;
+  if (eq.inliers < 6 || !eq.AtA.allFinite() || !eq.Atb.allFinite() || !std::isfinite(eq.btb)) {
+    step.condition = std::numeric_limits<double>::infinity();
+    return step;
+  }
+  const Eigen::JacobiSVD<Eigen::Matrix<double, 6, 6>> svd(eq.AtA,
+                                                         Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const auto& s = svd.singularValues();  // descending
+  step.condition = s(5) > 0 ? s(0) / s(5) : std::numeric_limits<double>::infinity();
+  if (!(s(0) > 0)) return step;
+  step.x = svd.solve(eq.Atb);
+  if (!step.x.allFinite()) {
+    step.x.setZero();
+    return step;
+  }
+  // r = sum w (a.x - b)^2 = x^T AtA x - 2 x^T Atb + btb, exact for the reduced sums.
+  step.residual = std::max(0.0, step.x.dot(eq.AtA * step.x) - 2 * step.x.dot(eq.Atb) + eq.btb);
+  step.solvable = true;
+  return step;
+}
+
+Eigen::Isometry3d icp_increment(const Eigen::Matrix<double, 6, 1>& x) {
+  Eigen::Isometry3d inc = Eigen::Isometry3d::Identity();
+  const Eigen::Vector3d omega = x.head<3>();
+  const double angle = omega.norm();
+  if (angle > 0) inc.linear() = Eigen::AngleAxisd(angle, omega / angle).toRotationMatrix();
+  inc.translation() = x.tail<3>();
+  return inc;
+}
+
+bool judge_icp(const IcpQuality& q, const IcpReliabilityThresholds& t, std::string* reason) {
+  std::string why;
+  if (q.inliers == 0) {
+    why = "no correspondences";
+  } else if (q.inliers < t.min_inliers) {
+    why = "inliers " + std::to_string(q.inliers) + " < " + std::to_string(t.min_inliers);
+  } else if (q.inlier_fraction < t.min_inlier_fraction) {
+    why = "inlier fraction " + format(q.inlier_fraction) + " < " + format(t.min_inlier_fraction);
+  } else if (!(q.condition <= t.max_condition)) {
+    why = "condition " + format(q.condition) + " > " + format(t.max_condition);
+  } else if (!(q.residual_per_weight <= t.max_residual_per_weight)) {
+    why = "residual/weight " + format(q.residual_per_weight) + " > " +
+          format(t.max_residual_per_weight);
+  }
+  if (reason != nullptr) *reason = why;
+  return why.empty();
+}
+
+Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
+                          const Eigen::Isometry3d& T_ref_cur_init) {
+  const int levels = source.levels();
+  IMUFUSION_RETURN_IF_ERROR(config.validate(levels));
+  IcpResult result;
+  if (!finite_pose(T_ref_cur_init)) {
+    result.reason = "initial pose is not finite";
+    return result;
+  }
+  Eigen::Isometry3d T = T_ref_cur_init;
+  int total = 0;
+  bool any_step = false;
+  int finest_run = levels;
+  for (int level = levels - 1; level >= 0; --level) {
+    // Keep one iteration for every finer level, so a small budget is spent at full resolution.
+    const int budget = config.max_total_iterations - total - level;
+    const int iterations = std::min(config.iterations_per_level[static_cast<std::size_t>(level)], budget);
+    if (iterations <= 0) continue;
+    const auto l = static_cast<std::size_t>(level);
+    const float min_cos = static_cast<float>(std::cos(config.max_normal_angle_deg[l] * M_PI / 180.0));
+    bool converged = false;
+    for (int it = 0; it < iterations; ++it) {
+      auto eq = source.evaluate(level, T, config.max_distance[l], min_cos);
+      if (!eq) return eq.error();
+      const IcpStep step = solve_icp_step(*eq);
+      IcpQuality& q = result.quality;
+      q.inliers = eq->inliers;
+      q.weight_sum = eq->weight_sum;
+      q.inlier_fraction = eq->valid_pixels > 0 ? double(eq->inliers) / double(eq->valid_pixels) : 0;
+      q.condition = step.condition;
+      q.residual = step.residual;
+      q.residual_per_inlier = eq->inliers > 0 ? step.residual / double(eq->inliers) : 0;
+      q.residual_per_weight = eq->weight_sum > 0 ? step.residual / eq->weight_sum : 0;
+      ++total;
+      finest_run = level;
+      if (!step.solvable) {
+        converged = false;
+        break;
+      }
+      any_step = true;
+      const Eigen::Isometry3d next = icp_increment(step.x) * T;
+      if (!finite_pose(next)) break;
+      T = next;
+      T.linear() = Eigen::Quaterniond(T.linear()).normalized().toRotationMatrix();
+      if (step.x.head<3>().norm() < config.converged_rotation &&
+          step.x.tail<3>().norm() < config.converged_translation) {
+        converged = true;
+        break;
+      }
+    }
+    result.quality.converged = converged;
+  }
+  result.quality.iterations = total;
+  result.T_ref_cur = T;
+  if (!any_step) {
+    result.quality.converged = false;
+    result.reason = result.quality.inliers == 0 ? "no correspondences" : "the ICP system is degenerate";
+    return result;
+  }
+  result.reliable = judge_icp(result.quality, config.reliability, &result.reason);
+  if (result.reliable && finest_run != 0) {
+    result.reliable = false;
+    result.reason = "level 0 was not reached";
+  }
+  return result;
+}
+
+}  // namespace imufusion

@@ -1,0 +1,108 @@
+#include "gpu/icp_kernels.hpp"
+
+#include <string>
+#include <utility>
+
+#include "imufusion_layouts.h"
+
+namespace imufusion::gpu {
+namespace {
+
+// Rows per workgroup of the first reduction stage: 16 per invocation of a 128-wide group.
+constexpr std::uint32_t kRowsPerGroup = 2048;
+
+}  // namespace
+
+Result<IcpKernels> IcpKernels::create(std::shared_ptr<Context> context, std::size_t max_pixels,
+                                      int workgroup_x, int workgroup_y) {
+  IcpKernels k;
+  auto associate = ComputePipeline::create(
+      context, {"icp_associate", 5, sizeof(layout::IcpAssociateParams),
+                static_cast<std::uint32_t>(workgroup_x), static_cast<std::uint32_t>(workgroup_y)});
+  if (!associate) return associate.error();
+  k.associate_ = std::move(*associate);
+  // One workgroup (of the shader's fixed 128 invocations) per grid cell.
+  auto reduce = ComputePipeline::create(context, {"icp_reduce", 2, sizeof(layout::IcpReduceParams), 1, 1});
+  if (!reduce) return reduce.error();
+  k.reduce_ = std::move(*reduce);
+  auto rows = Buffer::create(context, max_pixels * ICP_ROW_FLOATS * sizeof(float));
+  if (!rows) return rows.error();
+  k.rows_ = std::move(*rows);
+  const std::size_t max_groups = (max_pixels + kRowsPerGroup - 1) / kRowsPerGroup;
+  auto partials = Buffer::create(context, max_groups * ICP_PARTIAL_STRIDE * sizeof(float));
+  if (!partials) return partials.error();
+  k.partials_ = std::move(*partials);
+  return k;
+}
+
+void IcpKernels::record(CommandSequence& seq, const IcpMaps& current, const IcpMaps& reference,
+                        const Intrinsics& k, const Eigen::Isometry3d& T, float max_distance,
+                        float min_normal_cos, int level) {
+  const Eigen::Matrix3f R = T.linear().cast<float>();
+  const Eigen::Vector3f t = T.translation().cast<float>();
+  const layout::IcpAssociateParams params{
+      static_cast<std::uint32_t>(current.width), static_cast<std::uint32_t>(current.height),
+      static_cast<std::uint32_t>(reference.width), static_cast<std::uint32_t>(reference.height),
+      static_cast<float>(k.fx), static_cast<float>(k.fy), static_cast<float>(k.cx),
+      static_cast<float>(k.cy),
+      R(0, 0), R(0, 1), R(0, 2), t.x(),
+      R(1, 0), R(1, 1), R(1, 2), t.y(),
+      R(2, 0), R(2, 1), R(2, 2), t.z(),
+      max_distance, min_normal_cos};
+  const std::string suffix = "[" + std::to_string(level) + "]";
+  seq.dispatch(associate_,
+               {current.vertices, current.normals, reference.vertices, reference.normals, &rows_},
+               params, params.width, params.height, "icp_associate" + suffix);
+  const std::uint32_t row_count = params.width * params.height;
+  groups_ = (row_count + kRowsPerGroup - 1) / kRowsPerGroup;
+  const layout::IcpReduceParams reduce{row_count, kRowsPerGroup};
+  seq.dispatch(reduce_, {&rows_, &partials_}, reduce, groups_, 1, "icp_reduce" + suffix);
+}
+
+Result<NormalEquations> IcpKernels::read_equations() const {
+  std::vector<float> partials(static_cast<std::size_t>(groups_) * ICP_PARTIAL_STRIDE);
+  IMUFUSION_RETURN_IF_ERROR(partials_.download(partials.data(), partials.size() * sizeof(float)));
+  double sums[ICP_REDUCE_VALUES] = {};
+  for (std::uint32_t g = 0; g < groups_; ++g)
+    for (int v = 0; v < ICP_REDUCE_VALUES; ++v)
+      sums[v] += partials[static_cast<std::size_t>(g) * ICP_PARTIAL_STRIDE + static_cast<std::size_t>(v)];
+  NormalEquations eq;
+  int index = 0;
+  for (int i = 0; i < 6; ++i) {
+    for (int j = i; j < 6; ++j) {
+      eq.AtA(i, j) = sums[index];
+      eq.AtA(j, i) = sums[index];
+      ++index;
+    }
+  }
+  for (int i = 0; i < 6; ++i) eq.Atb(i) = sums[21 + i];
+  eq.btb = sums[27];
+  eq.inliers = static_cast<std::uint64_t>(sums[28] + 0.5);
+  eq.weight_sum = sums[29];
+  eq.valid_pixels = static_cast<std::uint64_t>(sums[30] + 0.5);
+  return eq;
+}
+
+GpuNormalEquationSource::GpuNormalEquationSource(IcpKernels& kernels, CommandSequence& seq,
+                                                 const Preprocessor& current,
+                                                 const Preprocessor& reference,
+                                                 std::vector<KernelTiming>* timings)
+    : kernels_(kernels), seq_(seq), current_(current), reference_(reference), timings_(timings) {}
+
+Result<NormalEquations> GpuNormalEquationSource::evaluate(int level,
+                                                          const Eigen::Isometry3d& T_ref_cur,
+                                                          float max_distance,
+                                                          float min_normal_cos) {
+  const Intrinsics& kc = current_.intrinsics(level);
+  const Intrinsics& kr = reference_.intrinsics(level);
+  const IcpMaps cur{&current_.vertices(level), &current_.normals(level), kc.width, kc.height};
+  const IcpMaps ref{&reference_.vertices(level), &reference_.normals(level), kr.width, kr.height};
+  IMUFUSION_RETURN_IF_ERROR(seq_.begin());
+  kernels_.record(seq_, cur, ref, kr, T_ref_cur, max_distance, min_normal_cos, level);
+  auto timings = seq_.submit_and_wait();
+  if (!timings) return timings.error();
+  if (timings_ != nullptr) timings_->insert(timings_->end(), timings->begin(), timings->end());
+  return kernels_.read_equations();
+}
+
+}  // namespace imufusion::gpu
