@@ -97,7 +97,7 @@ std::vector<ImuSample> generate_imu(const CameraMotion& motion, const ImuConfig&
 
     ImuSample s;
     // Stamps are whole microseconds, the precision of the text files.
-    s.timestamp = std::round((t_begin + static_cast<double>(k) * period + dt) * 1e6) * 1e-6;
+    s.timestamp = std::round((t_begin + static_cast<double>(k) * period + dt) * 1e6) / 1e6;
     s.gyro = true_gyro(motion, config.T_camera_imu, s.timestamp);
     s.accel = true_accel(motion, config.T_camera_imu, s.timestamp);
     if (config.bias) {

@@ -51,7 +51,7 @@ Status check_config(const SynthConfig& c) {
 /// Whole microseconds, the precision of the text files, so a stamp reads back exactly as the
 /// time the frame was rendered at.
 double frame_time(const SynthConfig& c, int index) {
-  return std::round((c.start_time + index / c.fps) * 1e6) * 1e-6;
+  return std::round((c.start_time + index / c.fps) * 1e6) / 1e6;
 }
 
 Status write_into(const SynthConfig& config, const fs::path& directory, SynthSummary& summary) {
