@@ -1,0 +1,196 @@
+// Host ICP with no GPU: the 6x6 step, the increment, the quality decision, and run_icp over the
+// CPU reference kernels on synthetic frames of the room.
+
+#include <cmath>
+#include <limits>
+
+#include <gtest/gtest.h>
+
+#include "imufusion/icp.hpp"
+#include "imufusion/synth.hpp"
+#include "reference/icp_reference.hpp"
+#include "reference/preprocess_reference.hpp"
+
+namespace imufusion {
+namespace {
+
+double rotation_deg(const Eigen::Isometry3d& T) {
+  return Eigen::AngleAxisd(T.linear()).angle() * 180.0 / M_PI;
+}
+
+Eigen::Isometry3d small_motion(double angle_deg, const Eigen::Vector3d& axis, const Eigen::Vector3d& t) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(angle_deg * M_PI / 180.0, axis.normalized()).toRotationMatrix();
+  T.translation() = t;
+  return T;
+}
+
+struct Pair {
+  PreprocessedFrame reference, current;
+  Intrinsics k;
+  Eigen::Isometry3d T_ref_cur;
+};
+
+// Two views of a scene: the reference at `T_world_ref`, the current one moved by `motion`.
+Pair render_pair(const synth::Scene& scene, const Eigen::Isometry3d& T_world_ref,
+                 const Eigen::Isometry3d& motion, bool noise, int width = 160, int height = 120) {
+  Pair pair;
+  pair.k = synth::default_intrinsics(width, height);
+  synth::SensorModel model;
+  model.depth_noise = noise;
+  const Eigen::Isometry3d T_world_cur = T_world_ref * motion;
+  const PreprocessConfig config;
+  pair.reference = reference::preprocess(synth::render_depth(scene, T_world_ref, pair.k, model, 1),
+                                         pair.k, config);
+  pair.current = reference::preprocess(synth::render_depth(scene, T_world_cur, pair.k, model, 2),
+                                       pair.k, config);
+  pair.T_ref_cur = motion;
+  return pair;
+}
+
+Eigen::Isometry3d room_view() {
+  return synth::CameraMotion(synth::SceneKind::kRoom, 3).pose_at(1.0);
+}
+
+TEST(IcpStep, SolvesAKnownLinearSystem) {
+  // Rows a_i with b_i = a_i . x_true: the step must return x_true and a zero residual.
+  Eigen::Matrix<double, 6, 1> x_true;
+  x_true << 0.01, -0.02, 0.005, 0.03, -0.01, 0.02;
+  NormalEquations eq;
+  std::srand(1);
+  for (int i = 0; i < 50; ++i) {
+    const Eigen::Matrix<double, 6, 1> a = Eigen::Matrix<double, 6, 1>::Random();
+    const double b = a.dot(x_true);
+    eq.AtA += a * a.transpose();
+    eq.Atb += a * b;
+    eq.btb += b * b;
+    eq.inliers++;
+    eq.weight_sum += 1;
+  }
+  const IcpStep step = solve_icp_step(eq);
+  ASSERT_TRUE(step.solvable);
+  EXPECT_LT((step.x - x_true).norm(), 1e-10);
+  EXPECT_NEAR(step.residual, 0.0, 1e-10);
+  EXPECT_GT(step.condition, 1.0);
+  EXPECT_TRUE(std::isfinite(step.condition));
+}
+
+TEST(IcpStep, EmptyOrNonFiniteSystemIsNotSolvable) {
+  EXPECT_FALSE(solve_icp_step(NormalEquations{}).solvable);
+  NormalEquations eq;
+  eq.inliers = 100;
+  eq.AtA.setIdentity();
+  eq.AtA(2, 2) = std::numeric_limits<double>::quiet_NaN();
+  const IcpStep step = solve_icp_step(eq);
+  EXPECT_FALSE(step.solvable);
+  EXPECT_TRUE(step.x.allFinite());
+}
+
+TEST(IcpIncrement, IsARotationEvenForLargeAngles) {
+  Eigen::Matrix<double, 6, 1> x;
+  x << 0.5, -0.3, 0.8, 1, 2, 3;
+  const Eigen::Isometry3d T = icp_increment(x);
+  EXPECT_LT((T.linear() * T.linear().transpose() - Eigen::Matrix3d::Identity()).norm(), 1e-12);
+  EXPECT_NEAR(T.linear().determinant(), 1.0, 1e-12);
+  EXPECT_EQ(T.translation(), Eigen::Vector3d(1, 2, 3));
+}
+
+TEST(IcpJudge, NamesTheFailingMetric) {
+  IcpReliabilityThresholds t;
+  IcpQuality q;
+  q.inliers = 5000;
+  q.inlier_fraction = 0.8;
+  q.condition = 20;
+  q.residual_per_weight = t.max_residual_per_weight / 2;
+  std::string reason;
+  EXPECT_TRUE(judge_icp(q, t, &reason));
+  EXPECT_TRUE(reason.empty());
+  q.condition = 1e5;
+  EXPECT_FALSE(judge_icp(q, t, &reason));
+  EXPECT_NE(reason.find("condition"), std::string::npos);
+  q.condition = 20;
+  q.inliers = 10;
+  EXPECT_FALSE(judge_icp(q, t, &reason));
+  EXPECT_NE(reason.find("inliers"), std::string::npos);
+}
+
+TEST(IcpCpu, RecoversAKnownMotionInTheRoom) {
+  const synth::Scene scene = synth::make_scene(synth::SceneKind::kRoom, 1);
+  const Eigen::Isometry3d motion = small_motion(2.0, {0.3, 1, 0.2}, {0.03, -0.02, 0.04});
+  Pair pair = render_pair(scene, room_view(), motion, /*noise=*/false);
+  reference::CpuNormalEquationSource source(pair.reference, pair.current, pair.k);
+  auto result = run_icp(source, IcpConfig{}, Eigen::Isometry3d::Identity());
+  ASSERT_TRUE(result.ok()) << result.error().describe();
+  const Eigen::Isometry3d error = pair.T_ref_cur.inverse() * result->T_ref_cur;
+  EXPECT_LT(error.translation().norm(), 0.002);
+  EXPECT_LT(rotation_deg(error), 0.1);
+  EXPECT_TRUE(result->reliable) << result->reason;
+  EXPECT_GT(result->quality.iterations, 1);
+  EXPECT_LT(result->quality.condition, IcpReliabilityThresholds{}.max_condition);
+}
+
+TEST(IcpCpu, AFlatWallIsIllConditionedAndUnreliable) {
+  synth::Scene wall;
+  synth::Plane plane;
+  plane.normal = Eigen::Vector3d(0, 0, 1);
+  plane.offset = 1.0;  // the plane z = 1 in world = camera coordinates of the identity pose
+  wall.planes.push_back(plane);
+  const Eigen::Isometry3d motion = small_motion(0.5, {0, 1, 0}, {0.02, 0.01, 0.0});
+  Pair pair = render_pair(wall, Eigen::Isometry3d::Identity(), motion, /*noise=*/true);
+  reference::CpuNormalEquationSource source(pair.reference, pair.current, pair.k);
+  auto result = run_icp(source, IcpConfig{}, Eigen::Isometry3d::Identity());
+  ASSERT_TRUE(result.ok());
+  EXPECT_GT(result->quality.condition, 1e3);
+  EXPECT_FALSE(result->reliable);
+  EXPECT_NE(result->reason.find("condition"), std::string::npos) << result->reason;
+}
+
+TEST(IcpCpu, DegenerateInputGivesAnUnreliableFinitePose) {
+  const synth::Scene scene = synth::make_scene(synth::SceneKind::kRoom, 1);
+  Pair pair = render_pair(scene, room_view(), Eigen::Isometry3d::Identity(), false);
+  // No valid pixels in the current frame.
+  PreprocessedFrame empty = pair.current;
+  for (auto& level : empty.vertices)
+    for (auto& v : level.data) v.setZero();
+  reference::CpuNormalEquationSource no_pixels(pair.reference, empty, pair.k);
+  auto a = run_icp(no_pixels, IcpConfig{}, Eigen::Isometry3d::Identity());
+  ASSERT_TRUE(a.ok());
+  EXPECT_FALSE(a->reliable);
+  EXPECT_TRUE(a->T_ref_cur.matrix().allFinite());
+  EXPECT_EQ(a->quality.inliers, 0u);
+
+  // Every pair rejected: the start is 3 m off.
+  reference::CpuNormalEquationSource far(pair.reference, pair.current, pair.k);
+  Eigen::Isometry3d off = Eigen::Isometry3d::Identity();
+  off.translation() = Eigen::Vector3d(0, 0, 3.0);
+  auto b = run_icp(far, IcpConfig{}, off);
+  ASSERT_TRUE(b.ok());
+  EXPECT_FALSE(b->reliable);
+  EXPECT_TRUE(b->T_ref_cur.matrix().allFinite());
+
+  // A NaN start.
+  Eigen::Isometry3d nan = Eigen::Isometry3d::Identity();
+  nan(0, 3) = std::numeric_limits<double>::quiet_NaN();
+  auto c = run_icp(far, IcpConfig{}, nan);
+  ASSERT_TRUE(c.ok());
+  EXPECT_FALSE(c->reliable);
+  EXPECT_TRUE(c->T_ref_cur.matrix().allFinite());
+}
+
+TEST(IcpCpu, ASingleIterationBudgetIsSpentAtFullResolution) {
+  const synth::Scene scene = synth::make_scene(synth::SceneKind::kRoom, 1);
+  const Eigen::Isometry3d motion = small_motion(0.3, {0, 1, 0}, {0.005, 0, 0.003});
+  Pair pair = render_pair(scene, room_view(), motion, false);
+  reference::CpuNormalEquationSource source(pair.reference, pair.current, pair.k);
+  IcpConfig config;
+  config.max_total_iterations = 1;
+  auto result = run_icp(source, config, Eigen::Isometry3d::Identity());
+  ASSERT_TRUE(result.ok());
+  EXPECT_EQ(result->quality.iterations, 1);
+  // One Gauss-Newton step from a small offset lands close.
+  const Eigen::Isometry3d error = pair.T_ref_cur.inverse() * result->T_ref_cur;
+  EXPECT_LT(error.translation().norm(), 0.002);
+}
+
+}  // namespace
+}  // namespace imufusion
