@@ -1,6 +1,6 @@
 // imufusion-info: checks a recorded sequence (FORMAT.md) and prints what a person needs before
 // scanning it: frames, rates and gaps, image size, intrinsics, colour, IMU, T_camera_imu, ground
-// truth coverage, and every problem found (each depth PNG is decoded).
+// truth coverage, and every problem found (every depth and colour image is decoded).
 // Exit status: 0 the sequence can be scanned, 1 it cannot (problems listed on stderr), 2 usage.
 
 #include <unistd.h>
@@ -23,7 +23,7 @@ constexpr const char* kUsage =
     "\n"
     "Checks the recorded sequence in directory SEQUENCE (depth.txt, depth PNGs, rgb.txt,\n"
     "calibration.txt, imu.txt, imu_to_camera.txt, groundtruth.txt, info.txt) and prints a\n"
-    "summary. Every depth PNG is decoded. Problems go to stderr, naming the file.\n"
+    "summary. Every depth and colour image is decoded. Problems go to stderr, naming the file.\n"
     "\n"
     "  --json   print one JSON object instead of the summary\n"
     "  --help   show this text\n"
@@ -86,8 +86,9 @@ void print_summary(const SequenceCheck& check) {
   if (info.color.empty()) {
     std::cout << "colour: none (no rgb.txt)\n";
   } else {
-    std::cout << "colour: " << info.color.size() << " frames, " << check.color_matched << " of "
-              << frames << " depth frames matched within 20 ms\n";
+    std::cout << "colour: " << info.color.size() << " frames (" << check.color_decoded
+              << " decoded), " << check.color_matched << " of " << frames
+              << " depth frames matched within 20 ms\n";
   }
   if (!info.has_imu) {
     std::cout << "imu: none: the scan will run without inertial aid\n";
@@ -157,7 +158,9 @@ nlohmann::json summary_json(const SequenceCheck& check) {
   } else {
     out["intrinsics"] = nullptr;
   }
-  out["color"] = {{"count", info.color.size()}, {"matched_depth_frames", check.color_matched}};
+  out["color"] = {{"count", info.color.size()},
+                  {"decoded", check.color_decoded},
+                  {"matched_depth_frames", check.color_matched}};
   if (info.has_imu) {
     out["imu"] = timing_json(check.imu);
     out["imu"]["spans_depth_frames"] = check.imu_spans_frames;
@@ -214,7 +217,7 @@ int main(int argc, char** argv) {
   const SequenceCheck check =
       imufusion::io::check_sequence(positional.front(), [&](std::size_t done, std::size_t total) {
         if (show_progress && (done % 25 == 0 || done == total)) {
-          std::cerr << "\rdecoding depth " << done << "/" << total << (done == total ? "\n" : "")
+          std::cerr << "\rdecoding images " << done << "/" << total << (done == total ? "\n" : "")
                     << std::flush;
         }
       });

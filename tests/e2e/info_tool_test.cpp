@@ -104,7 +104,9 @@ TEST_F(InfoTool, GoodSequenceIsScannable) {
   EXPECT_NE(result.out.find("30.00 Hz"), std::string::npos) << result.out;
   EXPECT_NE(result.out.find("decoded: 6 of 6"), std::string::npos) << result.out;
   EXPECT_NE(result.out.find("fx 20 fy 20 cx 7.5 cy 5.5"), std::string::npos) << result.out;
-  EXPECT_NE(result.out.find("6 of 6 depth frames matched"), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("colour: 6 frames (6 decoded), 6 of 6 depth frames matched"),
+            std::string::npos)
+      << result.out;
   EXPECT_NE(result.out.find("200.0 Hz"), std::string::npos) << result.out;
   EXPECT_NE(result.out.find("6 of 6 frames (100.0%)"), std::string::npos) << result.out;
   EXPECT_NE(result.out.find("verdict: scannable"), std::string::npos) << result.out;
@@ -134,6 +136,17 @@ TEST_F(InfoTool, TruncatedDepthImageIsNotScannable) {
   EXPECT_NE(result.err.find(victim.string()), std::string::npos) << result.err;
   EXPECT_NE(result.out.find("decoded: 5 of 6"), std::string::npos) << result.out;
   EXPECT_NE(result.out.find("NOT scannable"), std::string::npos) << result.out;
+}
+
+TEST_F(InfoTool, CorruptColourImageIsNotScannable) {
+  const fs::path dir = write_sequence("bad_colour");
+  const auto victim = dir / "rgb" / "50.043333.png";
+  ASSERT_TRUE(fs::exists(victim));
+  std::ofstream(victim, std::ios::trunc) << "garbage";
+  const ToolRun result = run(quoted(dir));
+  EXPECT_EQ(result.exit_code, 1);
+  EXPECT_NE(result.err.find(victim.string()), std::string::npos) << result.err;
+  EXPECT_NE(result.out.find("6 frames (5 decoded)"), std::string::npos) << result.out;
 }
 
 TEST_F(InfoTool, EveryMissingImageIsListed) {

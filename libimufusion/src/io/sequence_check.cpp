@@ -23,10 +23,17 @@ std::string percent(std::size_t part, std::size_t whole) {
   return buffer;
 }
 
-// Decodes every depth PNG: the only way to find a truncated or corrupt file before a scan does.
-void check_depth_images(SequenceCheck& check,
-                        const std::function<void(std::size_t, std::size_t)>& progress) {
+template <typename Image>
+std::string size_text(const Image& image) {
+  return std::to_string(image.width) + "x" + std::to_string(image.height);
+}
+
+// Decodes every image: the only way to find a truncated or corrupt file before a scan does.
+// Colour images count as problems too, since SequenceReader::next() fails on them.
+void check_images(SequenceCheck& check,
+                  const std::function<void(std::size_t, std::size_t)>& progress) {
   const SequenceInfo& info = check.index.info;
+  const std::size_t total = info.depth.size() + info.color.size();
   double valid_sum = 0;
   for (std::size_t i = 0; i < info.depth.size(); ++i) {
     const ImageIndexEntry& entry = info.depth[i];
@@ -34,21 +41,35 @@ void check_depth_images(SequenceCheck& check,
     if (!image.ok()) {
       check.index.problems.push_back(image.error());
     } else if (info.width > 0 && (image->width != info.width || image->height != info.height)) {
-      check.index.problems.push_back(
-          make_error(ErrorCode::kParseError,
-                     entry.path.string() + ": image size " + std::to_string(image->width) + "x" +
-                         std::to_string(image->height) + " differs from the " + "sequence's " +
-                         std::to_string(info.width) + "x" + std::to_string(info.height)));
+      check.index.problems.push_back(make_error(
+          ErrorCode::kParseError, entry.path.string() + ": image size " + size_text(*image) +
+                                      " differs from the sequence's " + std::to_string(info.width) +
+                                      "x" + std::to_string(info.height)));
     } else {
       const auto valid = std::count_if(image->data.begin(), image->data.end(),
                                        [](std::uint16_t d) { return d > 0; });
       valid_sum += static_cast<double>(valid) / static_cast<double>(image->data.size());
       ++check.depth_decoded;
     }
-    if (progress) progress(i + 1, info.depth.size());
+    if (progress) progress(i + 1, total);
   }
   if (check.depth_decoded > 0) {
     check.mean_valid_depth_fraction = valid_sum / static_cast<double>(check.depth_decoded);
+  }
+  for (std::size_t j = 0; j < info.color.size(); ++j) {
+    const ImageIndexEntry& entry = info.color[j];
+    auto image = read_color_image(entry.path);
+    if (!image.ok()) {
+      check.index.problems.push_back(image.error());
+    } else if (info.width > 0 && (image->width != info.width || image->height != info.height)) {
+      check.index.problems.push_back(make_error(
+          ErrorCode::kParseError, entry.path.string() + ": colour size " + size_text(*image) +
+                                      " differs from the depth size " + std::to_string(info.width) +
+                                      "x" + std::to_string(info.height)));
+    } else {
+      ++check.color_decoded;
+    }
+    if (progress) progress(info.depth.size() + j + 1, total);
   }
 }
 
@@ -142,7 +163,7 @@ SequenceCheck check_sequence(const std::filesystem::path& directory,
   std::vector<double> depth_stamps;
   for (const ImageIndexEntry& entry : info.depth) depth_stamps.push_back(entry.timestamp);
   check.depth = stream_timing(depth_stamps);
-  check_depth_images(check, progress);
+  check_images(check, progress);
   if (!check.depth.gaps.empty()) {
     check.warnings.push_back("depth.txt has " + std::to_string(check.depth.gaps.size()) +
                              " gaps (dropped frames?): tracking must bridge them");
@@ -155,7 +176,8 @@ SequenceCheck check_sequence(const std::filesystem::path& directory,
   }
   check_imu(check, depth_stamps);
   check_ground_truth(check, depth_stamps);
-  if (!info.intrinsics && std::filesystem::is_directory(directory)) {
+  std::error_code ec;
+  if (!info.intrinsics && std::filesystem::is_directory(directory, ec)) {
     check.index.problems.push_back(make_error(
         ErrorCode::kNotFound, (directory / "calibration.txt").string() +
                                   ": missing: pass intrinsics (fx fy cx cy) to the scan"));

@@ -40,6 +40,7 @@ struct SequenceCheck {
   StreamTiming depth, imu;
   std::size_t depth_decoded = 0;             // depth PNGs that decoded with the right size
   double mean_valid_depth_fraction = 0;      // over decoded frames: pixels with depth > 0
+  std::size_t color_decoded = 0;             // colour images that decoded with the depth size
   std::size_t color_matched = 0;             // depth frames with an associated colour frame
   std::size_t frames_without_imu = 0;        // frames after the first with no sample in (prev, t]
   bool imu_spans_frames = false;             // first IMU stamp <= first depth, last >= last depth
@@ -51,7 +52,8 @@ struct SequenceCheck {
   bool scannable = false;
 };
 
-/// Runs every check. `progress(done, total)` is called after each decoded depth frame.
+/// Runs every check. `progress(done, total)` is called after each decoded image (depth first,
+/// then colour).
 SequenceCheck check_sequence(const std::filesystem::path& directory,
                              const std::function<void(std::size_t, std::size_t)>& progress);
 
