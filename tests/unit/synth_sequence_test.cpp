@@ -189,7 +189,13 @@ TEST_F(SynthSequence, RefusesNonEmptyDirectoryAndBadConfig) {
   EXPECT_FALSE(fs::exists(dir / "keep.txt"));
   EXPECT_TRUE(fs::exists(dir / "depth.txt"));
 
+  // A trailing slash names the same directory; the partial one is its sibling.
   config.overwrite = false;
+  ASSERT_TRUE(synthesize(config, (root_ / "slash").string() + "/").ok());
+  EXPECT_TRUE(fs::exists(root_ / "slash" / "depth.txt"));
+  EXPECT_FALSE(fs::exists(root_ / "slash" / ".partial"));
+  EXPECT_FALSE(synthesize(config, ".").ok());
+
   config.frames = 0;
   result = synthesize(config, root_ / "none");
   ASSERT_FALSE(result.ok());

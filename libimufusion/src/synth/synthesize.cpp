@@ -130,9 +130,16 @@ Error io_error(const std::string& what, const fs::path& path, const std::error_c
 
 }  // namespace
 
-Result<SynthSummary> synthesize(const SynthConfig& config, const fs::path& out_dir) {
+Result<SynthSummary> synthesize(const SynthConfig& config, const fs::path& requested_dir) {
   IMUFUSION_RETURN_IF_ERROR(check_config(config));
-  if (out_dir.empty()) return make_error(ErrorCode::kInvalidArgument, "synthesize: empty out_dir");
+  // "out/" names the directory "out"; the partial sibling must sit next to it, not inside.
+  fs::path out_dir = requested_dir.lexically_normal();
+  if (!out_dir.has_filename()) out_dir = out_dir.parent_path();
+  if (out_dir.empty() || out_dir.filename() == "." || out_dir.filename() == "..") {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "synthesize: output directory '" + requested_dir.string() +
+                          "' must name a directory (not empty, '.' or '..')");
+  }
   std::error_code ec;
   const bool exists = fs::exists(out_dir, ec);
   if (exists && !fs::is_directory(out_dir, ec)) {
