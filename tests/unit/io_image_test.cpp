@@ -41,10 +41,12 @@ TEST(DepthPng, RoundTripIsBitExactAtOddSize) {
 
 TEST(DepthPng, ReadsBigEndianSamplesOfAnotherEncoder) {
   TempDir dir;
-  // libpng's simplified writer stores 16-bit linear gray as-is (big-endian in the file).
   const std::vector<std::uint16_t> values = {0x0102, 0xFF00, 0x00FF, 5000, 0, 65535};
-  ASSERT_TRUE(
-      testing::write_png_simplified(dir / "other.png", 3, 2, PNG_FORMAT_LINEAR_Y, values.data()));
+  std::vector<std::uint8_t> big_endian;
+  for (std::uint16_t value : values) {
+    big_endian.insert(big_endian.end(), {std::uint8_t(value >> 8), std::uint8_t(value & 0xFF)});
+  }
+  testing::write_png_independently(dir / "other.png", 3, 2, 16, 0, big_endian);
   auto read = read_depth_png(dir / "other.png", 5000.0);
   ASSERT_TRUE(read.ok()) << read.error().describe();
   EXPECT_EQ(read->data, values);
@@ -103,8 +105,7 @@ TEST(DepthPng, NonPngFileFails) {
 TEST(DepthPng, EightBitGrayIsWrongBitDepth) {
   TempDir dir;
   const std::vector<std::uint8_t> pixels(6 * 4, 17);
-  ASSERT_TRUE(
-      testing::write_png_simplified(dir / "gray8.png", 6, 4, PNG_FORMAT_GRAY, pixels.data()));
+  testing::write_png_independently(dir / "gray8.png", 6, 4, 8, 0, pixels);
   auto read = read_depth_png(dir / "gray8.png", 5000.0);
   ASSERT_FALSE(read.ok());
   EXPECT_EQ(read.error().code, ErrorCode::kUnsupported);
@@ -200,7 +201,7 @@ TEST(ColorImage, PngRoundTripAtOddSize) {
 TEST(ColorImage, GrayPngIsExpandedToRgb) {
   TempDir dir;
   const std::vector<std::uint8_t> pixels = {0, 50, 100, 150, 200, 250};
-  ASSERT_TRUE(testing::write_png_simplified(dir / "g.png", 3, 2, PNG_FORMAT_GRAY, pixels.data()));
+  testing::write_png_independently(dir / "g.png", 3, 2, 8, 0, pixels);
   auto read = read_color_image(dir / "g.png");
   ASSERT_TRUE(read.ok()) << read.error().describe();
   ASSERT_EQ(read->data.size(), 18u);
@@ -214,10 +215,19 @@ TEST(ColorImage, GrayPngIsExpandedToRgb) {
 TEST(ColorImage, RgbaPngDropsAlpha) {
   TempDir dir;
   const std::vector<std::uint8_t> pixels = {10, 20, 30, 255, 40, 50, 60, 255};
-  ASSERT_TRUE(testing::write_png_simplified(dir / "a.png", 2, 1, PNG_FORMAT_RGBA, pixels.data()));
+  testing::write_png_independently(dir / "a.png", 2, 1, 8, 6, pixels);
   auto read = read_color_image(dir / "a.png");
   ASSERT_TRUE(read.ok()) << read.error().describe();
   EXPECT_EQ(read->data, (std::vector<std::uint8_t>{10, 20, 30, 40, 50, 60}));
+}
+
+TEST(ColorImage, SixteenBitRgbPngKeepsTheHighByte) {
+  TempDir dir;
+  const std::vector<std::uint8_t> samples = {0x12, 0x34, 0xAB, 0xCD, 0xFF, 0x00};
+  testing::write_png_independently(dir / "c16.png", 1, 1, 16, 2, samples);
+  auto read = read_color_image(dir / "c16.png");
+  ASSERT_TRUE(read.ok()) << read.error().describe();
+  EXPECT_EQ(read->data, (std::vector<std::uint8_t>{0x12, 0xAB, 0xFF}));
 }
 
 TEST(ColorImage, ReadsJpeg) {

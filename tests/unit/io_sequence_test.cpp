@@ -408,8 +408,8 @@ TEST_F(SequenceFixture, NonPngDepthFileFailsInNext) {
 
 TEST_F(SequenceFixture, EightBitDepthImageFailsInNext) {
   const std::vector<std::uint8_t> pixels(kWidth * kHeight, 3);
-  ASSERT_TRUE(testing::write_png_simplified(dir / ("depth/" + fixed(100.3) + ".png"), kWidth,
-                                            kHeight, PNG_FORMAT_GRAY, pixels.data()));
+  testing::write_png_independently(dir / ("depth/" + fixed(100.3) + ".png"), kWidth, kHeight, 8, 0,
+                                   pixels);
   auto reader = SequenceReader::open(dir.path());
   ASSERT_TRUE(reader.ok());
   auto bad = reader->frame(3);

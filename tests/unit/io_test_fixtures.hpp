@@ -2,10 +2,8 @@
 // Helpers shared by the io tests: a self-deleting temporary directory and small file writers.
 
 #include <gtest/gtest.h>
-#include <png.h>
 
-#include <atomic>
-#include <chrono>
+#include <algorithm>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -86,16 +84,68 @@ inline ColorImage make_color(int width, int height, unsigned seed) {
   return image;
 }
 
-/// Writes a PNG with libpng's simplified API, independently of imufusion's writer. `format` is a
-/// PNG_FORMAT_* value; `pixels` holds bytes, or uint16 for the linear (16-bit) formats.
-inline bool write_png_simplified(const std::filesystem::path& path, int width, int height,
-                                 png_uint_32 format, const void* pixels) {
-  png_image image{};
-  image.version = PNG_IMAGE_VERSION;
-  image.width = static_cast<png_uint_32>(width);
-  image.height = static_cast<png_uint_32>(height);
-  image.format = format;
-  return png_image_write_to_file(&image, path.c_str(), 0, pixels, 0, nullptr) != 0;
+/// Encodes a PNG without libpng (deflate "stored" blocks, filter 0), so that the reader is
+/// checked against an independent encoder. `samples` are in file order: 16-bit samples
+/// big-endian. color_type: 0 gray, 2 RGB, 4 gray+alpha, 6 RGBA.
+inline std::vector<char> encode_png_independently(int width, int height, int bit_depth,
+                                                  int color_type,
+                                                  const std::vector<std::uint8_t>& samples) {
+  auto crc32 = [](const std::vector<std::uint8_t>& bytes) {
+    std::uint32_t crc = 0xFFFFFFFFu;
+    for (std::uint8_t byte : bytes) {
+      crc ^= byte;
+      for (int k = 0; k < 8; ++k) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
+    }
+    return crc ^ 0xFFFFFFFFu;
+  };
+  auto put32 = [](std::vector<std::uint8_t>& out, std::uint32_t v) {
+    for (int shift = 24; shift >= 0; shift -= 8) out.push_back(std::uint8_t(v >> shift));
+  };
+  std::vector<std::uint8_t> png = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  auto chunk = [&](const char* type, const std::vector<std::uint8_t>& data) {
+    put32(png, static_cast<std::uint32_t>(data.size()));
+    std::vector<std::uint8_t> body(type, type + 4);
+    body.insert(body.end(), data.begin(), data.end());
+    png.insert(png.end(), body.begin(), body.end());
+    put32(png, crc32(body));
+  };
+  std::vector<std::uint8_t> header;
+  put32(header, static_cast<std::uint32_t>(width));
+  put32(header, static_cast<std::uint32_t>(height));
+  header.insert(header.end(), {std::uint8_t(bit_depth), std::uint8_t(color_type), 0, 0, 0});
+  chunk("IHDR", header);
+
+  const int channels = color_type == 0 ? 1 : color_type == 2 ? 3 : color_type == 4 ? 2 : 4;
+  const std::size_t row_bytes = static_cast<std::size_t>(width) * channels * (bit_depth / 8);
+  std::vector<std::uint8_t> raw;  // each row: filter type 0, then the samples
+  for (int v = 0; v < height; ++v) {
+    raw.push_back(0);
+    raw.insert(raw.end(), samples.begin() + v * row_bytes, samples.begin() + (v + 1) * row_bytes);
+  }
+  std::vector<std::uint8_t> zlib = {0x78, 0x01};
+  for (std::size_t at = 0; at < raw.size() || at == 0; at += 65535) {
+    const std::size_t n = std::min<std::size_t>(65535, raw.size() - at);
+    zlib.push_back(at + n >= raw.size() ? 1 : 0);  // BFINAL, BTYPE 00 (stored)
+    zlib.insert(zlib.end(),
+                {std::uint8_t(n), std::uint8_t(n >> 8), std::uint8_t(~n), std::uint8_t(~n >> 8)});
+    zlib.insert(zlib.end(), raw.begin() + at, raw.begin() + at + n);
+    if (raw.empty()) break;
+  }
+  std::uint32_t a = 1, b = 0;  // Adler-32 of the uncompressed data
+  for (std::uint8_t byte : raw) {
+    a = (a + byte) % 65521u;
+    b = (b + a) % 65521u;
+  }
+  put32(zlib, (b << 16) | a);
+  chunk("IDAT", zlib);
+  chunk("IEND", {});
+  return std::vector<char>(png.begin(), png.end());
+}
+
+inline void write_png_independently(const std::filesystem::path& path, int width, int height,
+                                    int bit_depth, int color_type,
+                                    const std::vector<std::uint8_t>& samples) {
+  write_bytes(path, encode_png_independently(width, height, bit_depth, color_type, samples));
 }
 
 }  // namespace imufusion::testing
