@@ -54,6 +54,25 @@ TEST(DepthPng, ReadsBigEndianSamplesOfAnotherEncoder) {
   EXPECT_EQ(read->at(2, 1), 65535);
 }
 
+TEST(DepthPng, ReadsInterlacedFiles) {
+  TempDir dir;
+  const DepthImage image = testing::make_depth(13, 11, 21);
+  std::vector<std::uint8_t> big_endian;
+  for (std::uint16_t value : image.data) {
+    big_endian.insert(big_endian.end(), {std::uint8_t(value >> 8), std::uint8_t(value & 0xFF)});
+  }
+  testing::write_png_independently(dir / "adam7.png", 13, 11, 16, 0, big_endian, true);
+  auto read = read_depth_png(dir / "adam7.png", 5000.0);
+  ASSERT_TRUE(read.ok()) << read.error().describe();
+  EXPECT_EQ(read->data, image.data);
+
+  const ColorImage color = testing::make_color(13, 11, 22);
+  testing::write_png_independently(dir / "adam7_rgb.png", 13, 11, 8, 2, color.data, true);
+  auto read_color = read_color_image(dir / "adam7_rgb.png");
+  ASSERT_TRUE(read_color.ok()) << read_color.error().describe();
+  EXPECT_EQ(read_color->data, color.data);
+}
+
 TEST(DepthPng, MissingFileIsNotFound) {
   TempDir dir;
   auto read = read_depth_png(dir / "absent.png", 5000.0);

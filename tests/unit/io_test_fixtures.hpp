@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -86,10 +87,11 @@ inline ColorImage make_color(int width, int height, unsigned seed) {
 
 /// Encodes a PNG without libpng (deflate "stored" blocks, filter 0), so that the reader is
 /// checked against an independent encoder. `samples` are in file order: 16-bit samples
-/// big-endian. color_type: 0 gray, 2 RGB, 4 gray+alpha, 6 RGBA.
+/// big-endian. color_type: 0 gray, 2 RGB, 4 gray+alpha, 6 RGBA. `interlaced`: Adam7.
 inline std::vector<char> encode_png_independently(int width, int height, int bit_depth,
                                                   int color_type,
-                                                  const std::vector<std::uint8_t>& samples) {
+                                                  const std::vector<std::uint8_t>& samples,
+                                                  bool interlaced = false) {
   auto crc32 = [](const std::vector<std::uint8_t>& bytes) {
     std::uint32_t crc = 0xFFFFFFFFu;
     for (std::uint8_t byte : bytes) {
@@ -112,15 +114,28 @@ inline std::vector<char> encode_png_independently(int width, int height, int bit
   std::vector<std::uint8_t> header;
   put32(header, static_cast<std::uint32_t>(width));
   put32(header, static_cast<std::uint32_t>(height));
-  header.insert(header.end(), {std::uint8_t(bit_depth), std::uint8_t(color_type), 0, 0, 0});
+  header.insert(header.end(), {std::uint8_t(bit_depth), std::uint8_t(color_type), 0, 0,
+                               std::uint8_t(interlaced ? 1 : 0)});
   chunk("IHDR", header);
 
   const int channels = color_type == 0 ? 1 : color_type == 2 ? 3 : color_type == 4 ? 2 : 4;
-  const std::size_t row_bytes = static_cast<std::size_t>(width) * channels * (bit_depth / 8);
-  std::vector<std::uint8_t> raw;  // each row: filter type 0, then the samples
-  for (int v = 0; v < height; ++v) {
-    raw.push_back(0);
-    raw.insert(raw.end(), samples.begin() + v * row_bytes, samples.begin() + (v + 1) * row_bytes);
+  const std::size_t pixel_bytes = static_cast<std::size_t>(channels) * (bit_depth / 8);
+  // Adam7 passes as (x0, y0, dx, dy); a plain image is one pass (0, 0, 1, 1).
+  const std::vector<std::array<int, 4>> passes =
+      interlaced
+          ? std::vector<std::array<int, 4>>{{0, 0, 8, 8}, {4, 0, 8, 8}, {0, 4, 4, 8}, {2, 0, 4, 4},
+                                            {0, 2, 2, 4}, {1, 0, 2, 2}, {0, 1, 1, 2}}
+          : std::vector<std::array<int, 4>>{{0, 0, 1, 1}};
+  std::vector<std::uint8_t> raw;  // each row of each pass: filter type 0, then the samples
+  for (const auto& [x0, y0, dx, dy] : passes) {
+    if (x0 >= width || y0 >= height) continue;  // an empty pass has no rows at all
+    for (int v = y0; v < height; v += dy) {
+      raw.push_back(0);
+      for (int u = x0; u < width; u += dx) {
+        const auto at = samples.begin() + (static_cast<std::size_t>(v) * width + u) * pixel_bytes;
+        raw.insert(raw.end(), at, at + static_cast<std::ptrdiff_t>(pixel_bytes));
+      }
+    }
   }
   std::vector<std::uint8_t> zlib = {0x78, 0x01};
   for (std::size_t at = 0; at < raw.size() || at == 0; at += 65535) {
@@ -144,8 +159,10 @@ inline std::vector<char> encode_png_independently(int width, int height, int bit
 
 inline void write_png_independently(const std::filesystem::path& path, int width, int height,
                                     int bit_depth, int color_type,
-                                    const std::vector<std::uint8_t>& samples) {
-  write_bytes(path, encode_png_independently(width, height, bit_depth, color_type, samples));
+                                    const std::vector<std::uint8_t>& samples,
+                                    bool interlaced = false) {
+  write_bytes(path,
+              encode_png_independently(width, height, bit_depth, color_type, samples, interlaced));
 }
 
 }  // namespace imufusion::testing

@@ -73,6 +73,7 @@ bool png_setup_depth_step(png_structp png, png_infop info) {
   if (setjmp(png_jmpbuf(png))) return false;
   // PNG stores 16-bit samples big-endian; swap on little-endian hosts.
   if constexpr (std::endian::native == std::endian::little) png_set_swap(png);
+  png_set_interlace_handling(png);  // Adam7 files are de-interlaced by png_read_image
   png_read_update_info(png, info);
   return true;
 }
@@ -86,6 +87,7 @@ bool png_setup_color_step(png_structp png, png_infop info, int bit_depth, int co
   if (color_type == PNG_COLOR_TYPE_GRAY || color_type == PNG_COLOR_TYPE_GRAY_ALPHA) {
     png_set_gray_to_rgb(png);
   }
+  png_set_interlace_handling(png);
   png_read_update_info(png, info);
   return true;
 }
