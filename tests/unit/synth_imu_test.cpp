@@ -158,8 +158,8 @@ TEST(SynthImu, AccelerometerReadsSpecificForceInThePhoneFrame) {
   ASSERT_TRUE(stretch);
   const Eigen::Vector3d f =
       true_accel(wall, config.T_camera_imu, 0.5 * (stretch->begin + stretch->end));
-  EXPECT_GT(f.y(), 9.3);
-  EXPECT_LT(std::abs(f.x()) + std::abs(f.z()), 1.5);
+  // Within the view sweep (pitch, roll a few degrees) plus the mounting error: < 10 degrees.
+  EXPECT_GT(f.y() / f.norm(), std::cos(10.0 * kDeg));
 }
 
 TEST(SynthImu, SameSeedSameSamples) {

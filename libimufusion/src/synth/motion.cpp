@@ -27,21 +27,23 @@ const Eigen::Vector3d kLookTarget(3.0, 2.5, 0.7);  // above the table, metres
 
 // Wall episode (seconds after start): turn to the wall, face it, turn back.
 constexpr double kTurnInBegin = 0.5;
-constexpr double kStretchBegin = 3.5;
-constexpr double kStretchEnd = 5.5;
-constexpr double kTurnOutEnd = 8.5;
+constexpr double kStretchBegin = 4.0;
+constexpr double kStretchEnd = 6.0;
+constexpr double kTurnOutEnd = 9.5;
 constexpr double kStretchMid = 0.5 * (kStretchBegin + kStretchEnd);
 constexpr double kWallCameraX = 5.0;  // 1 m in front of the x = 6 wall
 constexpr double kWallSpeed = 0.3;    // m/s along the wall (y)
 
 // Fast scene: rotation bursts every kBurstPeriod seconds, each a sin^4 bump of kBurstYaw over
-// kBurstDuration (peak rate ~ 1.3 * pi * A / D = ~93 deg/s), with a sideways step of the hand.
+// kBurstDuration (peak rate 1.3 pi A / D = ~67 deg/s; each bump turns out and back, so one half
+// adds to the orbit's own ~23 deg/s turn and the hand shake: peaks of ~90-100 deg/s), with a
+// sideways step of the hand.
 constexpr double kBurstPeriod = 3.0;
 constexpr double kBurstFirst = 1.0;
 constexpr double kBurstDuration = 1.1;
-constexpr double kBurstYaw = 25.0 * kDeg;
+constexpr double kBurstYaw = 18.0 * kDeg;
 constexpr double kBurstPitch = 8.0 * kDeg;
-constexpr double kBurstShift = 0.15;  // metres
+constexpr double kBurstShift = 0.08;  // metres
 
 /// 0 -> 1 over [a, b], C2 (quintic smoothstep).
 double smooth_step(double a, double b, double x) {
@@ -153,14 +155,11 @@ CameraMotion::LookPose CameraMotion::look_pose(double tau) const {
     const bool turning_in = tau < kStretchMid;
     const double w = turning_in ? smooth_step(kTurnInBegin, kStretchBegin, tau)
                                 : 1.0 - smooth_step(kStretchEnd, kTurnOutEnd, tau);
-    // Turn one way in (yaw difference in (-2 pi, 0]) and back the other way (in [0, 2 pi)):
-    // continuous in tau because the orbit never faces the +x wall.
-    double dyaw = wall.yaw - pose.yaw;
-    if (turning_in) {
-      dyaw -= 2.0 * kPi * std::ceil(dyaw / (2.0 * kPi));
-    } else {
-      dyaw -= 2.0 * kPi * std::floor(dyaw / (2.0 * kPi));
-    }
+    // Turn the short way round, judged once per turn (at the stretch's edge) and kept for the
+    // whole turn, so that the yaw stays continuous in tau.
+    const double edge = turning_in ? kStretchBegin : kStretchEnd;
+    const double turns = std::round((wall_pose(edge).yaw - orbit_pose(edge).yaw) / (2.0 * kPi));
+    const double dyaw = wall.yaw - pose.yaw - 2.0 * kPi * turns;
     pose.position = (1.0 - w) * pose.position + w * wall.position;
     pose.yaw += w * dyaw;
     pose.pitch += w * (wall.pitch - pose.pitch);
