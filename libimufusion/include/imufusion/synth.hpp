@@ -154,7 +154,9 @@ class CameraMotion {
   /// Ground truth T_world_camera at time t (seconds).
   Eigen::Isometry3d pose_at(double t) const;
 
-  /// For `wall`: the interval during which only the bare wall (x = 6 m plane) is in view.
+  /// For `wall`: the interval during which only the bare wall (x = 6 m plane) is in view:
+  /// start_time + [4.0, 6.0] s, after a 3.5 s turn from the room (so 180 frames at 30 fps
+  /// reach its end; the turn back ends at 9.5 s, 285 frames).
   std::optional<TimeSpan> wall_stretch() const;
 
   /// The smallest duration (seconds from start_time) that contains the whole wall episode:
