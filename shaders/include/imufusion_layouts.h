@@ -95,6 +95,85 @@ struct IcpReduceParams {
   uint rows_per_group;
 };
 
+// The sparse TSDF volume (see libimufusion/include/imufusion/volume.hpp for the geometry).
+// Hash table: `hash_slots` slots of (key, pool index, visibility stamp); open addressing with
+// linear probing of at most VOLUME_MAX_PROBES slots; keys are inserted with atomicCompSwap only.
+// A key packs a block coordinate: x, y in [-1024, 1023] (11 bits each), z in [-512, 511] (10 bits).
+// Voxels: two uints each, block-major in the pool: word 0 = int16 tsdf (truncation units *
+// 32767) | uint16 weight << 16, word 1 = r | g << 8 | b << 16.
+#define VOLUME_EMPTY_KEY 0xFFFFFFFFu
+#define VOLUME_NO_BLOCK 0xFFFFFFFFu
+#define VOLUME_MAX_PROBES 64
+#define VOLUME_BLOCK_SIDE 8
+#define VOLUME_BLOCK_VOXELS 512
+// counters[]: what the allocation pass reports.
+#define VOLUME_COUNTER_ALLOCATED 0     // pool blocks handed out (may exceed capacity: overflow)
+#define VOLUME_COUNTER_VISIBLE 1       // entries written to the visible list this frame
+#define VOLUME_COUNTER_POOL_FULL 2     // blocks that found no room in the pool
+#define VOLUME_COUNTER_TABLE_FULL 3    // insertions that found no free slot within the probes
+#define VOLUME_COUNTER_OUT_OF_RANGE 4  // block coordinates outside the key range
+#define VOLUME_COUNTERS 8
+
+// volume_allocate: per depth pixel, the blocks crossed by the ray segment within +-truncation of
+// the measured depth (sampled every half block along the segment) are inserted and marked visible.
+struct VolumeAllocateParams {
+  uint width;
+  uint height;
+  float fx;
+  float fy;
+  float cx;
+  float cy;
+  float r00, r01, r02, tx;  // T_world_camera, row-major 3x4, metres
+  float r10, r11, r12, ty;
+  float r20, r21, r22, tz;
+  float voxel_size;   // metres
+  float truncation;   // metres
+  uint hash_mask;     // hash_slots - 1
+  uint block_capacity;
+  uint frame_stamp;   // > 0, new every frame
+};
+
+// volume_integrate: one workgroup per visible block; each voxel is projected into the depth
+// image (camera pose T_camera_world), sdf = depth - z, skipped below -truncation, then
+// tsdf = min(1, sdf / truncation) enters a running average with the weight capped at max_weight.
+struct VolumeIntegrateParams {
+  uint width;
+  uint height;
+  float fx;
+  float fy;
+  float cx;
+  float cy;
+  float r00, r01, r02, tx;  // T_camera_world, row-major 3x4
+  float r10, r11, r12, ty;
+  float r20, r21, r22, tz;
+  float voxel_size;
+  float truncation;
+  uint max_weight;
+  uint visible_count;
+  uint has_color;  // 1: colour (RGBA8 per pixel) is bound and averaged too
+};
+
+// volume_raycast: per pixel, march the ray from near to far: unallocated blocks are skipped a
+// block at a time, observed space in steps of 0.8 * tsdf * truncation (at least half a voxel);
+// the first + to - crossing of the trilinear TSDF is refined linearly. Output (camera frame of
+// the pose): vertex and normal maps (w = 1 where hit), a shaded image and the surface colour.
+struct VolumeRaycastParams {
+  uint width;
+  uint height;
+  float fx;
+  float fy;
+  float cx;
+  float cy;
+  float r00, r01, r02, tx;  // T_world_camera, row-major 3x4
+  float r10, r11, r12, ty;
+  float r20, r21, r22, tz;
+  float voxel_size;
+  float truncation;
+  float near_depth;  // metres along the ray
+  float far_depth;
+  uint hash_mask;
+};
+
 #ifdef __cplusplus
 }  // namespace imufusion::gpu::layout
 #endif

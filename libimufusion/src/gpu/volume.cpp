@@ -1,0 +1,213 @@
+#include "gpu/volume.hpp"
+
+#include <cstring>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "imufusion_layouts.h"
+
+namespace imufusion::gpu {
+namespace {
+
+template <typename Params>
+void set_pose(Params& p, const Eigen::Isometry3d& T) {
+  const Eigen::Matrix3f R = T.linear().cast<float>();
+  const Eigen::Vector3f t = T.translation().cast<float>();
+  p.r00 = R(0, 0), p.r01 = R(0, 1), p.r02 = R(0, 2), p.tx = t.x();
+  p.r10 = R(1, 0), p.r11 = R(1, 1), p.r12 = R(1, 2), p.ty = t.y();
+  p.r20 = R(2, 0), p.r21 = R(2, 1), p.r22 = R(2, 2), p.tz = t.z();
+}
+
+template <typename Params>
+void set_intrinsics(Params& p, const Intrinsics& k) {
+  p.width = static_cast<std::uint32_t>(k.width);
+  p.height = static_cast<std::uint32_t>(k.height);
+  p.fx = static_cast<float>(k.fx);
+  p.fy = static_cast<float>(k.fy);
+  p.cx = static_cast<float>(k.cx);
+  p.cy = static_cast<float>(k.cy);
+}
+
+Status check_config(const VolumeConfig& c) {
+  auto bad = [](const std::string& what) { return make_error(ErrorCode::kInvalidArgument, what); };
+  if (!(c.voxel_size > 0.0005f && c.voxel_size < 1.0f))
+    return bad("voxel size must be in (0.5 mm, 1 m), got " + std::to_string(c.voxel_size));
+  if (!(c.truncation_voxels >= 1.0f)) return bad("truncation must be at least one voxel");
+  if (c.max_weight < 1 || c.max_weight > 65535) return bad("max_weight must be 1..65535");
+  if (c.block_capacity == 0) return bad("block capacity must be positive");
+  if (c.hash_slots < 2 || (c.hash_slots & (c.hash_slots - 1)) != 0 || c.hash_slots < c.block_capacity)
+    return bad("hash_slots must be a power of two >= block_capacity, got " + std::to_string(c.hash_slots));
+  return {};
+}
+
+}  // namespace
+
+Result<TsdfVolume> TsdfVolume::create(std::shared_ptr<Context> context, const VolumeConfig& config,
+                                      int workgroup_x, int workgroup_y) {
+  IMUFUSION_RETURN_IF_ERROR(check_config(config));
+  TsdfVolume v;
+  v.context_ = context;
+  v.config_ = config;
+  const auto wx = static_cast<std::uint32_t>(workgroup_x), wy = static_cast<std::uint32_t>(workgroup_y);
+  auto make = [&](PipelineDesc desc, ComputePipeline& out) -> Status {
+    auto pipeline = ComputePipeline::create(context, desc);
+    if (!pipeline) return pipeline.error();
+    out = std::move(*pipeline);
+    return {};
+  };
+  IMUFUSION_RETURN_IF_ERROR(make({"volume_allocate", 6, sizeof(layout::VolumeAllocateParams), wx, wy}, v.allocate_));
+  IMUFUSION_RETURN_IF_ERROR(make({"volume_integrate", 6, sizeof(layout::VolumeIntegrateParams), 8, 8}, v.integrate_));
+  IMUFUSION_RETURN_IF_ERROR(make({"volume_raycast", 7, sizeof(layout::VolumeRaycastParams), wx, wy}, v.raycast_));
+  auto alloc = [&](std::size_t bytes, Buffer& out) -> Status {
+    auto buffer = Buffer::create(context, bytes);
+    if (!buffer) return buffer.error();
+    out = std::move(*buffer);
+    return {};
+  };
+  const std::size_t slots = config.hash_slots;
+  IMUFUSION_RETURN_IF_ERROR(alloc(slots * 4, v.keys_));
+  IMUFUSION_RETURN_IF_ERROR(alloc(slots * 4, v.values_));
+  IMUFUSION_RETURN_IF_ERROR(alloc(slots * 4, v.stamps_));
+  IMUFUSION_RETURN_IF_ERROR(alloc(std::size_t{config.block_capacity} * 4, v.visible_));
+  IMUFUSION_RETURN_IF_ERROR(alloc(VOLUME_COUNTERS * 4, v.counters_));
+  IMUFUSION_RETURN_IF_ERROR(alloc(std::size_t{config.block_capacity} * kBlockVoxels * 8, v.voxels_));
+  IMUFUSION_RETURN_IF_ERROR(alloc(4, v.no_color_));
+  auto seq = CommandSequence::create(context, 2);
+  if (!seq) return seq.error();
+  v.seq_ = std::move(*seq);
+  IMUFUSION_RETURN_IF_ERROR(v.reset());
+  return v;
+}
+
+Status TsdfVolume::reset() {
+  const std::vector<std::uint32_t> empty(config_.hash_slots, VOLUME_EMPTY_KEY);
+  IMUFUSION_RETURN_IF_ERROR(keys_.upload(empty.data(), empty.size() * 4));
+  IMUFUSION_RETURN_IF_ERROR(values_.clear());
+  IMUFUSION_RETURN_IF_ERROR(stamps_.clear());
+  IMUFUSION_RETURN_IF_ERROR(counters_.clear());
+  IMUFUSION_RETURN_IF_ERROR(voxels_.clear());
+  frame_stamp_ = 0;
+  allocated_ = 0;
+  return {};
+}
+
+Result<IntegrationStats> TsdfVolume::integrate(const Buffer& depth, const Buffer* color,
+                                               const Intrinsics& k,
+                                               const Eigen::Isometry3d& T_world_camera,
+                                               std::vector<KernelTiming>* timings) {
+  if (!T_world_camera.matrix().allFinite())
+    return make_error(ErrorCode::kInvalidArgument, "integration pose is not finite");
+  std::uint32_t counters[VOLUME_COUNTERS] = {};
+  IMUFUSION_RETURN_IF_ERROR(counters_.download(counters, sizeof(counters)));
+  counters[VOLUME_COUNTER_VISIBLE] = 0;
+  IMUFUSION_RETURN_IF_ERROR(counters_.upload(counters, sizeof(counters)));
+  ++frame_stamp_;
+  if (frame_stamp_ == 0) {  // wrapped after 2^32 frames: old stamps could collide
+    IMUFUSION_RETURN_IF_ERROR(stamps_.clear());
+    frame_stamp_ = 1;
+  }
+
+  layout::VolumeAllocateParams ap{};
+  set_intrinsics(ap, k);
+  set_pose(ap, T_world_camera);
+  ap.voxel_size = config_.voxel_size;
+  ap.truncation = config_.truncation();
+  ap.hash_mask = config_.hash_slots - 1;
+  ap.block_capacity = config_.block_capacity;
+  ap.frame_stamp = frame_stamp_;
+  IMUFUSION_RETURN_IF_ERROR(seq_.begin());
+  seq_.dispatch(allocate_, {&depth, &keys_, &values_, &stamps_, &visible_, &counters_}, ap, ap.width,
+                ap.height, "volume_allocate");
+  auto t1 = seq_.submit_and_wait();
+  if (!t1) return t1.error();
+  if (timings != nullptr) timings->insert(timings->end(), t1->begin(), t1->end());
+  IMUFUSION_RETURN_IF_ERROR(counters_.download(counters, sizeof(counters)));
+
+  IntegrationStats stats;
+  stats.visible_blocks = std::min(counters[VOLUME_COUNTER_VISIBLE], config_.block_capacity);
+  allocated_ = std::min(counters[VOLUME_COUNTER_ALLOCATED], config_.block_capacity);
+  stats.allocated_blocks = allocated_;
+  stats.pool_full = counters[VOLUME_COUNTER_POOL_FULL];
+  stats.table_full = counters[VOLUME_COUNTER_TABLE_FULL];
+  stats.out_of_range = counters[VOLUME_COUNTER_OUT_OF_RANGE];
+  // The overflow counters are per frame.
+  counters[VOLUME_COUNTER_POOL_FULL] = counters[VOLUME_COUNTER_TABLE_FULL] = 0;
+  counters[VOLUME_COUNTER_OUT_OF_RANGE] = 0;
+  IMUFUSION_RETURN_IF_ERROR(counters_.upload(counters, sizeof(counters)));
+  if (stats.visible_blocks == 0) return stats;
+
+  layout::VolumeIntegrateParams ip{};
+  set_intrinsics(ip, k);
+  set_pose(ip, T_world_camera.inverse());
+  ip.voxel_size = config_.voxel_size;
+  ip.truncation = config_.truncation();
+  ip.max_weight = static_cast<std::uint32_t>(config_.max_weight);
+  ip.visible_count = stats.visible_blocks;
+  ip.has_color = color != nullptr ? 1u : 0u;
+  IMUFUSION_RETURN_IF_ERROR(seq_.begin());
+  seq_.dispatch(integrate_,
+                {&depth, color != nullptr ? color : &no_color_, &keys_, &values_, &visible_, &voxels_},
+                ip, 8 * stats.visible_blocks, 8, "volume_integrate");
+  auto t2 = seq_.submit_and_wait();
+  if (!t2) return t2.error();
+  if (timings != nullptr) timings->insert(timings->end(), t2->begin(), t2->end());
+  return stats;
+}
+
+Status TsdfVolume::raycast(const Intrinsics& k, const Eigen::Isometry3d& T_world_camera,
+                           float near_depth, float far_depth, const Buffer& vertices,
+                           const Buffer& normals, const Buffer& shaded, const Buffer& colors,
+                           std::vector<KernelTiming>* timings) {
+  if (!T_world_camera.matrix().allFinite())
+    return make_error(ErrorCode::kInvalidArgument, "raycast pose is not finite");
+  layout::VolumeRaycastParams rp{};
+  set_intrinsics(rp, k);
+  set_pose(rp, T_world_camera);
+  rp.voxel_size = config_.voxel_size;
+  rp.truncation = config_.truncation();
+  rp.near_depth = near_depth;
+  rp.far_depth = far_depth;
+  rp.hash_mask = config_.hash_slots - 1;
+  IMUFUSION_RETURN_IF_ERROR(seq_.begin());
+  seq_.dispatch(raycast_, {&keys_, &values_, &voxels_, &vertices, &normals, &shaded, &colors}, rp,
+                rp.width, rp.height, "volume_raycast");
+  auto t = seq_.submit_and_wait();
+  if (!t) return t.error();
+  if (timings != nullptr) timings->insert(timings->end(), t->begin(), t->end());
+  return {};
+}
+
+Result<HostVolume> TsdfVolume::snapshot() const {
+  auto keys = keys_.download_as<std::uint32_t>(config_.hash_slots);
+  if (!keys) return keys.error();
+  auto values = values_.download_as<std::uint32_t>(config_.hash_slots);
+  if (!values) return values.error();
+  auto voxels = voxels_.download_as<std::uint32_t>(std::size_t{allocated_} * kBlockVoxels * 2);
+  if (!voxels) return voxels.error();
+  HostVolume host;
+  host.voxel_size = config_.voxel_size;
+  host.truncation = config_.truncation();
+  for (std::size_t slot = 0; slot < keys->size(); ++slot) {
+    const std::uint32_t key = (*keys)[slot];
+    const std::uint32_t block = (*values)[slot];
+    if (key == VOLUME_EMPTY_KEY || block == VOLUME_NO_BLOCK || block >= allocated_) continue;
+    VolumeBlock b;
+    b.coord = Eigen::Vector3i(static_cast<int>(key & 0x7FFu) - 1024,
+                              static_cast<int>((key >> 11) & 0x7FFu) - 1024,
+                              static_cast<int>(key >> 22) - 512);
+    for (int v = 0; v < kBlockVoxels; ++v) {
+      const std::size_t index = 2 * (std::size_t{block} * kBlockVoxels + static_cast<std::size_t>(v));
+      const std::uint32_t word0 = (*voxels)[index], word1 = (*voxels)[index + 1];
+      Voxel& voxel = b.voxels[static_cast<std::size_t>(v)];
+      voxel.tsdf = static_cast<float>(static_cast<std::int16_t>(word0 & 0xFFFFu)) / 32767.0f;
+      voxel.weight = static_cast<float>(word0 >> 16);
+      voxel.color = {static_cast<std::uint8_t>(word1 & 0xFF), static_cast<std::uint8_t>((word1 >> 8) & 0xFF),
+                     static_cast<std::uint8_t>((word1 >> 16) & 0xFF)};
+    }
+    host.blocks.push_back(std::move(b));
+  }
+  return host;
+}
+
+}  // namespace imufusion::gpu

@@ -1,0 +1,54 @@
+#pragma once
+// The sparse TSDF block volume on the GPU: hash table, block pool, allocation, integration,
+// raycast, and the download of a host snapshot.
+
+#include <memory>
+#include <optional>
+
+#include "gpu/buffer.hpp"
+#include "gpu/command_sequence.hpp"
+#include "gpu/context.hpp"
+#include "gpu/pipeline.hpp"
+#include "imufusion/fusion.hpp"
+#include "imufusion/volume.hpp"
+
+namespace imufusion::gpu {
+
+class TsdfVolume {
+ public:
+  static Result<TsdfVolume> create(std::shared_ptr<Context> context, const VolumeConfig& config,
+                                   int workgroup_x = 16, int workgroup_y = 16);
+
+  /// Allocates the blocks around `depth` (metres, on the GPU) and integrates it (and `color`,
+  /// RGBA8 per pixel, when given) seen from T_world_camera. Returns the frame's statistics.
+  Result<IntegrationStats> integrate(const Buffer& depth, const Buffer* color,
+                                     const Intrinsics& intrinsics,
+                                     const Eigen::Isometry3d& T_world_camera,
+                                     std::vector<KernelTiming>* timings = nullptr);
+
+  /// Raycasts the model from T_world_camera into `vertices`, `normals` (vec4, camera frame),
+  /// `shaded` and `colors` (RGBA8), each sized for the intrinsics.
+  Status raycast(const Intrinsics& intrinsics, const Eigen::Isometry3d& T_world_camera,
+                 float near_depth, float far_depth, const Buffer& vertices, const Buffer& normals,
+                 const Buffer& shaded, const Buffer& colors,
+                 std::vector<KernelTiming>* timings = nullptr);
+
+  Result<HostVolume> snapshot() const;
+  /// Empties the volume.
+  Status reset();
+
+  const VolumeConfig& config() const { return config_; }
+  std::uint32_t allocated_blocks() const { return allocated_; }
+  const std::shared_ptr<Context>& context() const { return context_; }
+
+ private:
+  std::shared_ptr<Context> context_;
+  VolumeConfig config_;
+  ComputePipeline allocate_, integrate_, raycast_;
+  Buffer keys_, values_, stamps_, visible_, counters_, voxels_, no_color_;
+  CommandSequence seq_;
+  std::uint32_t frame_stamp_ = 0;
+  std::uint32_t allocated_ = 0;
+};
+
+}  // namespace imufusion::gpu

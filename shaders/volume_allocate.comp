@@ -1,0 +1,71 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#include "imufusion_layouts.h"
+
+layout(local_size_x_id = 0, local_size_y_id = 1, local_size_z = 1) in;
+layout(std430, set = 0, binding = 0) readonly buffer Depth { float depth[]; };  // metres
+layout(std430, set = 0, binding = 1) buffer Keys { uint keys[]; };
+layout(std430, set = 0, binding = 2) buffer Values { uint values[]; };
+layout(std430, set = 0, binding = 3) buffer Stamps { uint stamps[]; };
+layout(std430, set = 0, binding = 4) buffer Visible { uint visible[]; };  // hash slots
+layout(std430, set = 0, binding = 5) buffer Counters { uint counters[]; };
+layout(push_constant) uniform Push { VolumeAllocateParams p; };
+
+#include "volume_common.glsl"
+
+void mark_visible(uint slot) {
+  if (atomicExchange(stamps[slot], p.frame_stamp) == p.frame_stamp) return;
+  uint index = atomicAdd(counters[VOLUME_COUNTER_VISIBLE], 1u);
+  if (index < p.block_capacity) visible[index] = slot;
+}
+
+void insert(ivec3 b) {
+  if (!key_in_range(b)) {
+    atomicAdd(counters[VOLUME_COUNTER_OUT_OF_RANGE], 1u);
+    return;
+  }
+  uint key = pack_key(b);
+  uint slot = hash_block(b, p.hash_mask);
+  for (int probe = 0; probe < VOLUME_MAX_PROBES; ++probe) {
+    uint previous = atomicCompSwap(keys[slot], VOLUME_EMPTY_KEY, key);
+    if (previous == VOLUME_EMPTY_KEY) {
+      uint index = atomicAdd(counters[VOLUME_COUNTER_ALLOCATED], 1u);
+      if (index < p.block_capacity) {
+        values[slot] = index;
+        mark_visible(slot);
+      } else {
+        values[slot] = VOLUME_NO_BLOCK;
+        atomicAdd(counters[VOLUME_COUNTER_POOL_FULL], 1u);
+      }
+      return;
+    }
+    if (previous == key) {
+      mark_visible(slot);
+      return;
+    }
+    slot = (slot + 1u) & p.hash_mask;
+  }
+  atomicAdd(counters[VOLUME_COUNTER_TABLE_FULL], 1u);
+}
+
+void main() {
+  uvec2 px = gl_GlobalInvocationID.xy;
+  if (px.x >= p.width || px.y >= p.height) return;
+  float d = depth[px.y * p.width + px.x];
+  if (d <= 0.0) return;
+  vec3 ray = vec3((float(px.x) - p.cx) / p.fx, (float(px.y) - p.cy) / p.fy, 1.0);
+  mat3 R = mat3(p.r00, p.r10, p.r20, p.r01, p.r11, p.r21, p.r02, p.r12, p.r22);
+  vec3 t = vec3(p.tx, p.ty, p.tz);
+  vec3 a = R * (ray * max(d - p.truncation, 0.0)) + t;
+  vec3 c = R * (ray * (d + p.truncation)) + t;
+  float block_length = p.voxel_size * float(VOLUME_BLOCK_SIDE);
+  int steps = int(ceil(distance(a, c) / (0.5 * block_length)));
+  ivec3 last = ivec3(0x7FFFFFFF);
+  for (int i = 0; i <= steps; ++i) {
+    vec3 w = mix(a, c, float(i) / float(max(steps, 1)));
+    ivec3 b = ivec3(floor(w / block_length));
+    if (b == last) continue;
+    last = b;
+    insert(b);
+  }
+}
