@@ -2,16 +2,23 @@
 // Triangle meshes extracted from the volume, and their export. World frame, metres.
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <filesystem>
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "imufusion/result.hpp"
+#include "imufusion/types.hpp"
 #include "imufusion/volume.hpp"
 
 namespace imufusion {
+
+namespace synth {
+struct Scene;
+}
 
 struct Mesh {
   std::vector<Eigen::Vector3f> vertices;               // metres, world frame
@@ -19,5 +26,95 @@ struct Mesh {
   std::vector<std::array<std::uint8_t, 3>> colors;     // RGB per vertex (empty: no colour)
   std::vector<std::array<std::uint32_t, 3>> triangles; // counter-clockwise seen from outside
 };
+
+/// Checks that a mesh is well formed: one normal per vertex, colours absent or one per vertex,
+/// finite positions and normals, every index below the vertex count. kInvalidArgument otherwise.
+Status check_mesh(const Mesh& mesh);
+
+struct MeshOptions {
+  /// A cell (8 neighbouring voxels) is meshed only when every corner has at least this weight
+  /// (observations); 1 skips cells with any unobserved corner. Must be > 0.
+  float min_weight = 1.0f;
+  bool colors = true;  // interpolate voxel colours into Mesh::colors
+  int threads = 0;     // worker threads over blocks; 0: std::thread::hardware_concurrency()
+};
+
+/// Marching cubes (Lorensen-Cline) over the snapshot's lattice. One vertex per crossed lattice
+/// edge, shared by every triangle that uses it, so the mesh is closed where the surface is;
+/// positions at the linear zero crossing of the TSDF, normals from the trilinear-consistent
+/// central-difference TSDF gradient (pointing to positive TSDF, i.e. out of objects),
+/// triangles counter-clockwise seen from the positive side. Cells spanning block borders use
+/// the neighbour blocks; a cell with a missing block or an under-weighted corner yields nothing.
+/// Faces with two diagonal negative corners keep the negative corners apart (the standard
+/// table's choice). Output does not depend on the block order or the thread count.
+/// kInvalidArgument for duplicate block coordinates, a non-positive voxel size or min_weight,
+/// or a block coordinate beyond +-2^15.
+Result<Mesh> extract_mesh(const HostVolume& volume, const MeshOptions& options = {});
+
+/// Binary little-endian PLY: vertex x y z nx ny nz (float) [red green blue (uchar) when the mesh
+/// has colours], face vertex_indices (list uchar uint). Written atomically (a temporary file in
+/// the same directory renamed over `path`): an existing file is replaced whole or left as it
+/// was. An empty mesh gives a valid PLY with zero vertices and faces.
+Status write_ply(const std::filesystem::path& path, const Mesh& mesh);
+
+/// Binary glTF 2.0: one mesh, one triangle primitive with POSITION (with min/max), NORMAL,
+/// COLOR_0 (normalized unsigned byte RGB, when present) and uint32 indices, a matte material,
+/// asset.generator "imufusion". Written atomically like write_ply(). An empty mesh (no
+/// triangles) is refused with kInvalidArgument: glTF accessors cannot be empty.
+Status write_glb(const std::filesystem::path& path, const Mesh& mesh);
+
+/// Reads a PLY (binary little-endian; any property order, float or double coordinates, optional
+/// normals and uchar colours, polygon faces fan-triangulated). Missing normals are computed from
+/// the faces (area-weighted).
+Result<Mesh> read_ply(const std::filesystem::path& path);
+
+/// Reads a .glb or .gltf: every triangle primitive of every mesh, concatenated, node transforms
+/// ignored (write_glb() writes none). Missing normals are computed from the faces.
+Result<Mesh> read_gltf(const std::filesystem::path& path);
+
+/// read_ply() or read_gltf() by extension (.ply, .glb, .gltf; case-insensitive).
+Result<Mesh> read_mesh(const std::filesystem::path& path);
+
+/// Which ground-truth surface points count as seen: the sensor's range and incidence limits.
+struct SurfaceSampleOptions {
+  int frame_step = 1;     // use every n-th pose
+  int pixel_step = 8;     // cast a ray through every n-th pixel on both axes
+  double min_depth = 0.4, max_depth = 4.5;  // metres along the optical axis
+  double max_incidence_deg = 78.0;          // angle between ray and surface normal
+  double cell_size = 0.01;  // metres: keep one point per cell, so the points are spread evenly
+};
+
+/// Points of the true surface seen from the given camera poses (T_world_camera), world frame,
+/// metres: exact ray casts through a pixel grid, thinned to one point per cell.
+std::vector<Eigen::Vector3d> observed_surface_points(const synth::Scene& scene,
+                                                     const Trajectory& poses,
+                                                     const Intrinsics& intrinsics,
+                                                     const SurfaceSampleOptions& options = {});
+
+struct MeshEvalOptions {
+  double completeness_threshold = 0.02;  // metres
+  double sample_spacing = 0.005;  // metres: one accuracy sample per spacing^2 of mesh area
+  std::size_t max_samples = 4'000'000;  // cap on accuracy samples (spacing grows beyond it)
+  std::uint64_t seed = 1;               // triangle sampling
+};
+
+/// Accuracy (mesh -> truth) and completeness (truth -> mesh) of a mesh against a synthetic scene.
+struct MeshAccuracy {
+  // Distance from area-uniform samples of the mesh surface to the nearest true surface, metres.
+  // NaN when the mesh has no area.
+  double accuracy_mean = 0.0, accuracy_median = 0.0, accuracy_p90 = 0.0;
+  // Fraction of reference points closer than the threshold to the mesh surface.
+  double completeness = 0.0;
+  double completeness_threshold = 0.0;  // metres
+  std::size_t mesh_samples = 0, reference_points = 0;
+};
+
+/// `reference_points`: true-surface samples (e.g. observed_surface_points()). Distances to the
+/// mesh are exact point-triangle distances (a uniform grid of triangles finds the candidates).
+/// kInvalidArgument when the mesh is malformed, no reference points are given or an option is
+/// out of range.
+Result<MeshAccuracy> evaluate_mesh(const Mesh& mesh, const synth::Scene& scene,
+                                   const std::vector<Eigen::Vector3d>& reference_points,
+                                   const MeshEvalOptions& options = {});
 
 }  // namespace imufusion

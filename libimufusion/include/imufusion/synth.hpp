@@ -99,6 +99,11 @@ struct RayHit {
 std::optional<RayHit> intersect(const Scene& scene, const Eigen::Vector3d& origin,
                                 const Eigen::Vector3d& direction);
 
+/// Euclidean distance (metres) from `point` to the nearest surface of any primitive: the room's
+/// six faces, box and cylinder boundaries (caps included), spheres, planes. Parts of a surface
+/// hidden inside another primitive count too. +infinity for an empty scene.
+double distance_to_surface(const Scene& scene, const Eigen::Vector3d& point);
+
 /// Default Kinect-like intrinsics (640x480: fx = fy = 525, cx = 319.5, cy = 239.5) scaled to
 /// width x height (fx by width / 640, fy by height / 480, pixel centres kept consistent).
 Intrinsics default_intrinsics(int width = 640, int height = 480);

@@ -1,0 +1,285 @@
+// Marching cubes over a HostVolume. Blocks are meshed independently (in parallel), each from an
+// 11^3 gather of its voxels plus one layer of every neighbour (the +1 layer closes the cells on
+// the block's far faces, the -1 and +2 layers feed the central differences of the normals);
+// the per-block meshes are then welded in block-coordinate order, keyed by lattice edge.
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <string>
+#include <thread>
+#include <tuple>
+#include <unordered_map>
+#include <vector>
+
+#include "imufusion/mesh.hpp"
+#include "mesh/lattice_key.hpp"
+#include "mesh/marching_cubes_tables.hpp"
+
+namespace imufusion {
+namespace {
+
+using mesh::kTables;
+
+// Local lattice coordinates -1 .. kBlockSide + 1 around a block (origin at index 1).
+constexpr int kGather = kBlockSide + 3;
+constexpr int kGatherVoxels = kGather * kGather * kGather;
+
+struct LocalVoxel {
+  float tsdf = 0.0f;
+  std::array<std::uint8_t, 3> color{};
+  bool usable = false;  // present in the snapshot with weight >= min_weight
+};
+
+constexpr int gather_index(int x, int y, int z) {
+  return (x + 1) + kGather * ((y + 1) + kGather * (z + 1));
+}
+
+struct BlockMesh {
+  std::vector<std::uint64_t> edge_keys;  // one per vertex
+  std::vector<Eigen::Vector3f> vertices, normals;
+  std::vector<std::array<std::uint8_t, 3>> colors;
+  std::vector<std::array<std::uint32_t, 3>> triangles;  // local vertex indices
+};
+
+class Mesher {
+ public:
+  Mesher(const HostVolume& volume, const MeshOptions& options,
+         const std::unordered_map<std::uint64_t, std::size_t>& index)
+      : volume_(volume), options_(options), index_(index) {}
+
+  void mesh_block(const VolumeBlock& block, BlockMesh& out) {
+    gather(block);
+    std::fill(edge_vertex_.begin(), edge_vertex_.end(), -1);
+    const Eigen::Vector3i origin = block.coord * kBlockSide;
+    for (int k = 0; k < kBlockSide; ++k) {
+      for (int j = 0; j < kBlockSide; ++j) {
+        for (int i = 0; i < kBlockSide; ++i) mesh_cell(origin, i, j, k, out);
+      }
+    }
+  }
+
+ private:
+  void gather(const VolumeBlock& block) {
+    std::array<const VolumeBlock*, 27> neighbours{};
+    for (int dz = -1; dz <= 1; ++dz) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+          const auto it = index_.find(mesh::block_key(block.coord + Eigen::Vector3i(dx, dy, dz)));
+          neighbours[(dx + 1) + 3 * ((dy + 1) + 3 * (dz + 1))] =
+              it == index_.end() ? nullptr : &volume_.blocks[it->second];
+        }
+      }
+    }
+    // Block offset and voxel index of a local coordinate in -1 .. kBlockSide + 1.
+    auto split = [](int c, int& offset, int& voxel) {
+      offset = c < 0 ? -1 : (c >= kBlockSide ? 1 : 0);
+      voxel = c - offset * kBlockSide;
+    };
+    for (int z = -1; z <= kBlockSide + 1; ++z) {
+      int oz = 0, vz = 0;
+      split(z, oz, vz);
+      for (int y = -1; y <= kBlockSide + 1; ++y) {
+        int oy = 0, vy = 0;
+        split(y, oy, vy);
+        for (int x = -1; x <= kBlockSide + 1; ++x) {
+          int ox = 0, vx = 0;
+          split(x, ox, vx);
+          LocalVoxel& local = local_[gather_index(x, y, z)];
+          const VolumeBlock* source = neighbours[(ox + 1) + 3 * ((oy + 1) + 3 * (oz + 1))];
+          if (source == nullptr) {
+            local.usable = false;
+            continue;
+          }
+          const Voxel& voxel = source->voxels[voxel_index(vx, vy, vz)];
+          local.usable = voxel.weight >= options_.min_weight && std::isfinite(voxel.tsdf);
+          local.tsdf = voxel.tsdf;
+          local.color = voxel.color;
+        }
+      }
+    }
+  }
+
+  const LocalVoxel& at(int x, int y, int z) const { return local_[gather_index(x, y, z)]; }
+
+  // TSDF gradient at a lattice point (local coordinates): central differences where both
+  // neighbours are usable, one-sided otherwise (the point is a usable cell corner, so along each
+  // axis at least the cell's own neighbour is usable).
+  Eigen::Vector3f gradient(int x, int y, int z) const {
+    const float centre = at(x, y, z).tsdf;
+    Eigen::Vector3f g;
+    for (int axis = 0; axis < 3; ++axis) {
+      const int dx = axis == 0, dy = axis == 1, dz = axis == 2;
+      const LocalVoxel& plus = at(x + dx, y + dy, z + dz);
+      const LocalVoxel& minus = at(x - dx, y - dy, z - dz);
+      if (plus.usable && minus.usable) {
+        g[axis] = 0.5f * (plus.tsdf - minus.tsdf);
+      } else if (plus.usable) {
+        g[axis] = plus.tsdf - centre;
+      } else if (minus.usable) {
+        g[axis] = centre - minus.tsdf;
+      } else {
+        g[axis] = 0.0f;
+      }
+    }
+    return g;
+  }
+
+  void mesh_cell(const Eigen::Vector3i& origin, int i, int j, int k, BlockMesh& out) {
+    int cube = 0;
+    for (int c = 0; c < 8; ++c) {
+      const auto& corner = mesh::kCorner[c];
+      const LocalVoxel& v = at(i + corner[0], j + corner[1], k + corner[2]);
+      if (!v.usable) return;
+      if (v.tsdf < 0.0f) cube |= 1 << c;
+    }
+    const mesh::CaseTriangles& triangles = kTables.triangles[cube];
+    if (triangles.count == 0) return;
+    for (int t = 0; t < triangles.count; ++t) {
+      std::array<std::uint32_t, 3> tri{};
+      for (int v = 0; v < 3; ++v) tri[v] = edge_vertex(origin, i, j, k, triangles.edges[t][v], out);
+      out.triangles.push_back(tri);
+    }
+  }
+
+  // The vertex on edge `e` of cell (i, j, k), created on first use. Computed from the edge's
+  // lower end toward its upper end, so every block that meets the edge computes the same bits.
+  std::uint32_t edge_vertex(const Eigen::Vector3i& origin, int i, int j, int k, int e,
+                            BlockMesh& out) {
+    const auto& c0 = mesh::kCorner[mesh::kEdgeCorners[e][0]];
+    const auto& c1 = mesh::kCorner[mesh::kEdgeCorners[e][1]];
+    int axis = 0;
+    while (c0[axis] == c1[axis]) ++axis;
+    const auto& lo = c0[axis] < c1[axis] ? c0 : c1;
+    const int x = i + lo[0], y = j + lo[1], z = k + lo[2];
+    int& slot = edge_vertex_[static_cast<std::size_t>(
+        axis + 3 * (x + (kBlockSide + 1) * (y + (kBlockSide + 1) * z)))];
+    if (slot >= 0) return static_cast<std::uint32_t>(slot);
+
+    const int dx = axis == 0, dy = axis == 1, dz = axis == 2;
+    const LocalVoxel& a = at(x, y, z);
+    const LocalVoxel& b = at(x + dx, y + dy, z + dz);
+    const float t = a.tsdf / (a.tsdf - b.tsdf);  // in [0, 1): a >= 0 > b or a < 0 <= b
+    Eigen::Vector3d lattice(origin.x() + x, origin.y() + y, origin.z() + z);
+    lattice[axis] += static_cast<double>(t);
+    Eigen::Vector3f normal = (1.0f - t) * gradient(x, y, z) + t * gradient(x + dx, y + dy, z + dz);
+    if (normal.norm() > 0.0f) {
+      normal.normalize();
+    } else {
+      normal = Eigen::Vector3f::Zero();
+      normal[axis] = b.tsdf > a.tsdf ? 1.0f : -1.0f;
+    }
+
+    slot = static_cast<int>(out.vertices.size());
+    out.edge_keys.push_back(
+        mesh::edge_key(Eigen::Vector3i(origin.x() + x, origin.y() + y, origin.z() + z), axis));
+    out.vertices.push_back((lattice * static_cast<double>(volume_.voxel_size)).cast<float>());
+    out.normals.push_back(normal);
+    if (options_.colors) {
+      std::array<std::uint8_t, 3> color{};
+      for (int ch = 0; ch < 3; ++ch) {
+        const float value = (1.0f - t) * a.color[ch] + t * b.color[ch];
+        color[ch] = static_cast<std::uint8_t>(std::clamp(std::lround(value), 0L, 255L));
+      }
+      out.colors.push_back(color);
+    }
+    return static_cast<std::uint32_t>(slot);
+  }
+
+  const HostVolume& volume_;
+  const MeshOptions& options_;
+  const std::unordered_map<std::uint64_t, std::size_t>& index_;
+  std::vector<LocalVoxel> local_ = std::vector<LocalVoxel>(kGatherVoxels);
+  // Vertex index per (axis, lower end) of the edges whose lower end lies in 0 .. kBlockSide.
+  std::vector<int> edge_vertex_ = std::vector<int>(3 * (kBlockSide + 1) * (kBlockSide + 1) *
+                                                   (kBlockSide + 1));
+};
+
+}  // namespace
+
+Result<Mesh> extract_mesh(const HostVolume& volume, const MeshOptions& options) {
+  if (!(volume.voxel_size > 0.0f) || !std::isfinite(volume.voxel_size)) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "extract_mesh: voxel size " + std::to_string(volume.voxel_size) +
+                          " m is not positive");
+  }
+  if (!(options.min_weight > 0.0f)) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "extract_mesh: min_weight " + std::to_string(options.min_weight) +
+                          " must be positive (weight 0 marks unobserved voxels)");
+  }
+  std::unordered_map<std::uint64_t, std::size_t> index;
+  index.reserve(volume.blocks.size() * 2);
+  for (std::size_t b = 0; b < volume.blocks.size(); ++b) {
+    const Eigen::Vector3i& c = volume.blocks[b].coord;
+    if (!mesh::block_in_range(c)) {
+      return make_error(ErrorCode::kInvalidArgument,
+                        "extract_mesh: block (" + std::to_string(c.x()) + ", " +
+                            std::to_string(c.y()) + ", " + std::to_string(c.z()) +
+                            ") is outside the supported lattice (|coordinate| < " +
+                            std::to_string(mesh::kMaxBlockCoord) + ")");
+    }
+    if (!index.emplace(mesh::block_key(c), b).second) {
+      return make_error(ErrorCode::kInvalidArgument,
+                        "extract_mesh: block (" + std::to_string(c.x()) + ", " +
+                            std::to_string(c.y()) + ", " + std::to_string(c.z()) +
+                            ") appears twice in the snapshot");
+    }
+  }
+
+  // Blocks in coordinate order, so that the welded output does not depend on the snapshot order.
+  std::vector<std::size_t> order(volume.blocks.size());
+  for (std::size_t b = 0; b < order.size(); ++b) order[b] = b;
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    const Eigen::Vector3i& ca = volume.blocks[a].coord;
+    const Eigen::Vector3i& cb = volume.blocks[b].coord;
+    return std::tie(ca.z(), ca.y(), ca.x()) < std::tie(cb.z(), cb.y(), cb.x());
+  });
+
+  std::vector<BlockMesh> parts(order.size());
+  unsigned threads = options.threads > 0 ? static_cast<unsigned>(options.threads)
+                                         : std::max(1u, std::thread::hardware_concurrency());
+  threads = static_cast<unsigned>(std::min<std::size_t>(threads, std::max<std::size_t>(1, order.size())));
+  std::atomic<std::size_t> next{0};
+  auto work = [&] {
+    Mesher mesher(volume, options, index);
+    for (std::size_t n = next.fetch_add(1); n < order.size(); n = next.fetch_add(1)) {
+      mesher.mesh_block(volume.blocks[order[n]], parts[n]);
+    }
+  };
+  std::vector<std::thread> pool;
+  for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work);
+  work();
+  for (auto& thread : pool) thread.join();
+
+  Mesh result;
+  std::size_t vertex_bound = 0, triangle_count = 0;
+  for (const BlockMesh& part : parts) {
+    vertex_bound += part.vertices.size();
+    triangle_count += part.triangles.size();
+  }
+  result.triangles.reserve(triangle_count);
+  std::unordered_map<std::uint64_t, std::uint32_t> welded;
+  welded.reserve(vertex_bound);
+  std::vector<std::uint32_t> remap;
+  for (BlockMesh& part : parts) {
+    remap.resize(part.vertices.size());
+    for (std::size_t v = 0; v < part.vertices.size(); ++v) {
+      const auto [it, inserted] =
+          welded.emplace(part.edge_keys[v], static_cast<std::uint32_t>(result.vertices.size()));
+      if (inserted) {
+        result.vertices.push_back(part.vertices[v]);
+        result.normals.push_back(part.normals[v]);
+        if (options.colors) result.colors.push_back(part.colors[v]);
+      }
+      remap[v] = it->second;
+    }
+    for (const auto& tri : part.triangles) {
+      result.triangles.push_back({remap[tri[0]], remap[tri[1]], remap[tri[2]]});
+    }
+    part = BlockMesh{};  // release as we go: the parts together are as large as the mesh
+  }
+  return result;
+}
+
+}  // namespace imufusion
