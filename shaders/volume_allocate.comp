@@ -40,7 +40,7 @@ void insert(ivec3 b) {
       return;
     }
     if (previous == key) {
-      mark_visible(slot);
+      if (values[slot] != VOLUME_NO_BLOCK) mark_visible(slot);
       return;
     }
     slot = (slot + 1u) & p.hash_mask;
