@@ -98,7 +98,8 @@ struct IcpReduceParams {
 // The sparse TSDF volume (see libimufusion/include/imufusion/volume.hpp for the geometry).
 // Hash table: `hash_slots` slots of (key, pool index, visibility stamp); open addressing with
 // linear probing of at most VOLUME_MAX_PROBES slots; keys are inserted with atomicCompSwap only.
-// A key packs a block coordinate: x, y in [-1024, 1023] (11 bits each), z in [-512, 511] (10 bits).
+// A key packs a block coordinate: x, y in [-1024, 1023] (11 bits each), z in [-512, 511] (10 bits),
+// except (1023, 1023, 511), whose key would be VOLUME_EMPTY_KEY (it counts as out of range).
 // Voxels: two uints each, block-major in the pool: word 0 = int16 tsdf (truncation units *
 // 32767) | uint16 weight << 16, word 1 = r | g << 8 | b << 16.
 #define VOLUME_EMPTY_KEY 0xFFFFFFFFu

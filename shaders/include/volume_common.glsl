@@ -6,9 +6,10 @@ const int kKeyMaxXY = 1023;
 const int kKeyMinZ = -512;
 const int kKeyMaxZ = 511;
 
+// (kKeyMaxXY, kKeyMaxXY, kKeyMaxZ) would pack to VOLUME_EMPTY_KEY: it counts as out of range.
 bool key_in_range(ivec3 b) {
   return b.x >= kKeyMinXY && b.x <= kKeyMaxXY && b.y >= kKeyMinXY && b.y <= kKeyMaxXY &&
-         b.z >= kKeyMinZ && b.z <= kKeyMaxZ;
+         b.z >= kKeyMinZ && b.z <= kKeyMaxZ && b != ivec3(kKeyMaxXY, kKeyMaxXY, kKeyMaxZ);
 }
 
 uint pack_key(ivec3 b) {
