@@ -594,6 +594,45 @@ TEST_F(GpuTest, VolumeOutOfRangeBlocksAreCountedAndNotFused) {
   EXPECT_LE(diff.outliers, budget(diff.observed)) << diff;
 }
 
+// The last block of the key range, (1023, 1023, 511), would pack to the bits of the empty-slot
+// marker, so it counts as out of range. Before it did, every ray through it took a new pool
+// block (none of them findable): allocated_blocks grew past the blocks in the table.
+TEST_F(GpuTest, VolumeLastKeyOfTheRangeIsNotAllocated) {
+  const Intrinsics k = synth::default_intrinsics(97, 61);
+  const VolumeConfig config = small_config();
+  const double edge = 1024 * kBlockSide * config.voxel_size;   // 81.92 m: first x, y out
+  const double edge_z = 512 * kBlockSide * config.voxel_size;  // 40.96 m: first z out
+  synth::Scene scene;
+  synth::Plane wall;
+  wall.normal = Eigen::Vector3d::UnitX();
+  wall.offset = edge - 0.03;
+  scene.planes.push_back(wall);
+  // A point of the wall inside block (1023, 1023, 511), seen by the centre pixel.
+  const Eigen::Vector3d corner(edge - 0.03, edge - 0.04, edge_z - 0.04);
+  const Eigen::Vector3i last_key(1023, 1023, 511);
+  auto gpu_volume = GpuVolume::create(context_, config, k);
+  ASSERT_TRUE(gpu_volume.has_value());
+  GpuVolume& gpu = *gpu_volume;
+  CpuVolume ref(config);
+  for (double dx : {1.0, 0.8}) {
+    const Frame frame =
+        make_frame(scene, look_at(corner - Eigen::Vector3d(dx, 0.0, 0.0), corner), k, true);
+    ASSERT_GT(frame.depth.at(k.width / 2, k.height / 2), 0.0f);
+    const IntegrationStats stats = gpu.integrate(frame);
+    ref.fuse(frame.depth, &frame.color, k, frame.T_world_camera);
+    ASSERT_TRUE(ref.contains(Eigen::Vector3i(1023, 1022, 511)));
+    ASSERT_TRUE(ref.contains(Eigen::Vector3i(1023, 1023, 510)));
+    EXPECT_FALSE(ref.contains(last_key));
+    EXPECT_GT(stats.out_of_range, 0u);
+    EXPECT_EQ(stats.allocated_blocks, ref.block_count());
+    const HostVolume host = gpu.snapshot();
+    EXPECT_EQ(host.blocks.size(), stats.allocated_blocks);
+    EXPECT_EQ(symmetric_difference(sorted_blocks(host), ref.block_coords()), 0u);
+    const VoxelDiff diff = compare_voxels(host, ref);
+    EXPECT_LE(diff.outliers, budget(diff.observed)) << diff;
+  }
+}
+
 TEST_F(GpuTest, VolumeMemoryIsEightBytesPerVoxel) {
   VolumeConfig config = small_config();
   config.block_capacity = 96;

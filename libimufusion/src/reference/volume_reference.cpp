@@ -44,7 +44,7 @@ bool block_less(const Eigen::Vector3i& a, const Eigen::Vector3i& b) {
 
 bool block_in_key_range(const Eigen::Vector3i& b) {
   return b.x() >= -1024 && b.x() <= 1023 && b.y() >= -1024 && b.y() <= 1023 && b.z() >= -512 &&
-         b.z() <= 511;
+         b.z() <= 511 && b != Eigen::Vector3i(1023, 1023, 511);
 }
 
 AllocationResult visible_blocks(const FloatImage& depth, const Intrinsics& k,

@@ -32,7 +32,8 @@ struct StoredVoxel {
 };
 using StoredBlock = std::array<StoredVoxel, kBlockVoxels>;
 
-/// Block coordinates that a block key can hold: x, y in [-1024, 1023], z in [-512, 511].
+/// Block coordinates that a block key can hold: x, y in [-1024, 1023], z in [-512, 511], except
+/// (1023, 1023, 511), whose key would be the empty-slot marker.
 bool block_in_key_range(const Eigen::Vector3i& b);
 
 /// What one allocation did: the blocks the frame touches (in key range, each once, sorted by
