@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "imufusion/device.hpp"
@@ -44,10 +45,12 @@ class TsdfFusion {
   Result<IntegrationStats> integrate(const DepthImage& depth, const ColorImage* color,
                                      const Eigen::Isometry3d& T_world_camera,
                                      std::vector<KernelTiming>* timings = nullptr);
-  /// Raycasts the model from T_world_camera with the fusion's intrinsics (or others).
+  /// Raycasts the model from T_world_camera with the fusion's intrinsics (or others), between
+  /// depths near and far (metres along the optical axis; default: the preprocessing range).
   Result<RaycastImages> raycast(const Eigen::Isometry3d& T_world_camera,
                                 std::optional<Intrinsics> intrinsics = std::nullopt,
-                                std::vector<KernelTiming>* timings = nullptr);
+                                std::vector<KernelTiming>* timings = nullptr,
+                                std::optional<std::pair<float, float>> depth_range = std::nullopt);
   /// The allocated blocks, downloaded.
   Result<HostVolume> snapshot() const;
   Status reset();

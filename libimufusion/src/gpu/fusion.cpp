@@ -94,8 +94,13 @@ Result<IntegrationStats> TsdfFusion::integrate(const DepthImage& depth, const Co
 
 Result<RaycastImages> TsdfFusion::raycast(const Eigen::Isometry3d& T_world_camera,
                                           std::optional<Intrinsics> intrinsics,
-                                          std::vector<KernelTiming>* timings) {
+                                          std::vector<KernelTiming>* timings,
+                                          std::optional<std::pair<float, float>> depth_range) {
   const Intrinsics k = intrinsics.value_or(impl_->intrinsics);
+  const auto [near_depth, far_depth] = depth_range.value_or(
+      std::pair{impl_->preprocess_config.min_depth, impl_->preprocess_config.max_depth});
+  if (!(near_depth >= 0 && far_depth > near_depth))
+    return make_error(ErrorCode::kInvalidArgument, "raycast depth range is empty");
   const auto pixels = static_cast<std::size_t>(k.width) * k.height;
   if (pixels == 0) return make_error(ErrorCode::kInvalidArgument, "raycast of an empty image");
   std::vector<gpu::Buffer> buffers;
@@ -104,8 +109,7 @@ Result<RaycastImages> TsdfFusion::raycast(const Eigen::Isometry3d& T_world_camer
     if (!b) return b.error();
     buffers.push_back(std::move(*b));
   }
-  IMUFUSION_RETURN_IF_ERROR(impl_->volume.raycast(k, T_world_camera, impl_->preprocess_config.min_depth,
-                                                  impl_->preprocess_config.max_depth, buffers[0],
+  IMUFUSION_RETURN_IF_ERROR(impl_->volume.raycast(k, T_world_camera, near_depth, far_depth, buffers[0],
                                                   buffers[1], buffers[2], buffers[3], timings));
   RaycastImages out;
   for (int i = 0; i < 2; ++i) {
