@@ -289,6 +289,17 @@ TEST_F(GpuTest, VolumeAllocationMatchesReference) {
         << "frame " << f;
     EXPECT_EQ(stats.pool_full + stats.table_full + stats.out_of_range, 0u);
   }
+  // After a reset the volume is empty and the next frame allocates as in a new volume.
+  ASSERT_TRUE(gpu.volume.reset().ok());
+  EXPECT_EQ(gpu.volume.allocated_blocks(), 0u);
+  EXPECT_TRUE(gpu.snapshot().blocks.empty());
+  const Frame frame = make_frame(scene, orbit_pose(1.0), k, false);
+  const IntegrationStats stats = gpu.integrate(frame);
+  const Blocks fresh = CpuVolume(config).allocate(frame.depth, k, frame.T_world_camera).visible;
+  const Blocks after_reset = sorted_blocks(gpu.snapshot());
+  EXPECT_EQ(stats.allocated_blocks, after_reset.size());
+  EXPECT_EQ(stats.visible_blocks, after_reset.size());
+  EXPECT_LE(symmetric_difference(after_reset, fresh), budget(fresh.size()));
 }
 
 TEST_F(GpuTest, VolumeIntegrationMatchesReference) {
