@@ -40,8 +40,8 @@ std::vector<Eigen::Vector3d> sphere_points(int n) {
   for (int i = 0; i < n; ++i) {
     const double z = 1.0 - 2.0 * (i + 0.5) / n;
     const double r = std::sqrt(1.0 - z * z);
-    points.push_back(kCentre + kRadius * Eigen::Vector3d(r * std::cos(golden * i),
-                                                         r * std::sin(golden * i), z));
+    points.push_back(
+        kCentre + kRadius * Eigen::Vector3d(r * std::cos(golden * i), r * std::sin(golden * i), z));
   }
   return points;
 }
@@ -58,8 +58,8 @@ TEST(DistanceToSurface, ExactForEachPrimitive) {
   EXPECT_NEAR(synth::distance_to_surface(scene, Eigen::Vector3d(1, 2, 0.5)), 0.5, 1e-12);
   EXPECT_NEAR(synth::distance_to_surface(scene, Eigen::Vector3d(1.5, 1, 0.5)), 0.25, 1e-12);
   EXPECT_NEAR(synth::distance_to_surface(scene, Eigen::Vector3d(1, 1, 0.6)), 0.25, 1e-12);
-  EXPECT_NEAR(synth::distance_to_surface(scene, Eigen::Vector3d(1.25 + 0.3, 1.5 + 0.4, 0.5)),
-              0.5, 1e-12);  // outside a vertical edge: diagonal distance
+  EXPECT_NEAR(synth::distance_to_surface(scene, Eigen::Vector3d(1.25 + 0.3, 1.5 + 0.4, 0.5)), 0.5,
+              1e-12);  // outside a vertical edge: diagonal distance
 
   scene.boxes.clear();
   synth::Cylinder cylinder;
@@ -103,8 +103,8 @@ TEST(EvaluateMesh, MarchingCubesSphereIsAccurateAndComplete) {
   EXPECT_DOUBLE_EQ(result->completeness, 1.0);
   EXPECT_EQ(result->reference_points, 5000u);
   // 4 pi r^2 = 1.13 m^2 at one sample per (5 mm)^2.
-  EXPECT_NEAR(static_cast<double>(result->mesh_samples), 4 * std::numbers::pi * kRadius * kRadius / 25e-6,
-              100.0);
+  EXPECT_NEAR(static_cast<double>(result->mesh_samples),
+              4 * std::numbers::pi * kRadius * kRadius / 25e-6, 100.0);
 }
 
 TEST(EvaluateMesh, ShiftedSphereLosesAccuracyAndCompleteness) {

@@ -134,8 +134,8 @@ TEST(MarchingCubes, InterpolatesColours) {
 TEST(MarchingCubes, TiltedPlaneHasNoCracksAtBlockBorders) {
   const Eigen::Vector3d normal = Eigen::Vector3d(0.15, -0.1, 1.0).normalized();
   const auto sdf = [&](const Eigen::Vector3d& p) { return normal.dot(p) - 0.0437; };
-  const HostVolume volume = make_sdf_volume(sdf, Eigen::Vector3i(-3, -3, -2),
-                                            Eigen::Vector3i(2, 2, 2));
+  const HostVolume volume =
+      make_sdf_volume(sdf, Eigen::Vector3i(-3, -3, -2), Eigen::Vector3i(2, 2, 2));
   auto mesh = extract_mesh(volume);
   ASSERT_TRUE(mesh.ok()) << mesh.error().describe();
   ASSERT_GT(mesh->triangles.size(), 1000u);
@@ -148,8 +148,8 @@ TEST(MarchingCubes, TiltedPlaneHasNoCracksAtBlockBorders) {
     if (count == 2) continue;
     ++open;
     const Eigen::Vector3f mid = 0.5f * (mesh->vertices[edge.first] + mesh->vertices[edge.second]);
-    const bool on_border = mid.x() < -0.235f || mid.x() > 0.225f || mid.y() < -0.235f ||
-                           mid.y() > 0.225f;
+    const bool on_border =
+        mid.x() < -0.235f || mid.x() > 0.225f || mid.y() < -0.235f || mid.y() > 0.225f;
     ASSERT_TRUE(on_border) << "open edge inside the volume at " << mid.transpose();
   }
   EXPECT_GT(open, 0);
@@ -189,8 +189,10 @@ TEST(MarchingCubes, UnobservedVoxelsAndMissingBlocksProduceNothing) {
   ASSERT_TRUE(with_hole.ok());
   for (const auto& p : with_hole->vertices) {
     const Eigen::Vector3d lattice = p.cast<double>() / 0.01;
-    const bool inside = (lattice.array() > (removed * 8).cast<double>().array()).all() &&
-                        (lattice.array() < (removed * 8 + Eigen::Vector3i::Constant(8)).cast<double>().array()).all();
+    const bool inside =
+        (lattice.array() > (removed * 8).cast<double>().array()).all() &&
+        (lattice.array() < (removed * 8 + Eigen::Vector3i::Constant(8)).cast<double>().array())
+            .all();
     ASSERT_FALSE(inside) << p.transpose();
   }
   EXPECT_LT(with_hole->triangles.size(), extract_mesh(sphere_volume())->triangles.size());

@@ -1,6 +1,7 @@
 #pragma once
 // Volumes written straight from analytic signed distance functions, for the mesh tests.
 
+#include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
 #include <functional>
@@ -8,8 +9,6 @@
 #include <set>
 #include <tuple>
 #include <utility>
-
-#include <Eigen/Core>
 
 #include "imufusion/mesh.hpp"
 #include "imufusion/volume.hpp"
@@ -33,8 +32,8 @@ inline HostVolume make_sdf_volume(const Sdf& sdf, const Eigen::Vector3i& lo,
   for (int z = lo.z(); z <= hi.z(); ++z) {
     for (int y = lo.y(); y <= hi.y(); ++y) {
       for (int x = lo.x(); x <= hi.x(); ++x) {
-        const Eigen::Vector3d centre = (Eigen::Vector3d(x, y, z) + Eigen::Vector3d::Constant(0.5)) *
-                                       block_size;
+        const Eigen::Vector3d centre =
+            (Eigen::Vector3d(x, y, z) + Eigen::Vector3d::Constant(0.5)) * block_size;
         if (std::abs(sdf(centre)) > reach) continue;
         VolumeBlock block;
         block.coord = Eigen::Vector3i(x, y, z);

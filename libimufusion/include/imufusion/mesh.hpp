@@ -1,14 +1,13 @@
 #pragma once
 // Triangle meshes extracted from the volume, and their export. World frame, metres.
 
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <array>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
 #include <vector>
-
-#include <Eigen/Core>
-#include <Eigen/Geometry>
 
 #include "imufusion/result.hpp"
 #include "imufusion/types.hpp"
@@ -77,8 +76,8 @@ Result<Mesh> read_mesh(const std::filesystem::path& path);
 
 /// Which ground-truth surface points count as seen: the sensor's range and incidence limits.
 struct SurfaceSampleOptions {
-  int frame_step = 1;     // use every n-th pose
-  int pixel_step = 8;     // cast a ray through every n-th pixel on both axes
+  int frame_step = 1;                       // use every n-th pose
+  int pixel_step = 8;                       // cast a ray through every n-th pixel on both axes
   double min_depth = 0.4, max_depth = 4.5;  // metres along the optical axis
   double max_incidence_deg = 78.0;          // angle between ray and surface normal
   double cell_size = 0.01;  // metres: keep one point per cell, so the points are spread evenly
@@ -93,9 +92,9 @@ std::vector<Eigen::Vector3d> observed_surface_points(const synth::Scene& scene,
 
 struct MeshEvalOptions {
   double completeness_threshold = 0.02;  // metres
-  double sample_spacing = 0.005;  // metres: one accuracy sample per spacing^2 of mesh area
-  std::size_t max_samples = 4'000'000;  // cap on accuracy samples (spacing grows beyond it)
-  std::uint64_t seed = 1;               // triangle sampling
+  double sample_spacing = 0.005;         // metres: one accuracy sample per spacing^2 of mesh area
+  std::size_t max_samples = 4'000'000;   // cap on accuracy samples (spacing grows beyond it)
+  std::uint64_t seed = 1;                // triangle sampling
 };
 
 /// Accuracy (mesh -> truth) and completeness (truth -> mesh) of a mesh against a synthetic scene.

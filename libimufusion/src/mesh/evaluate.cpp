@@ -3,9 +3,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <numeric>
 #include <string>
+#include <thread>
 #include <unordered_map>
 
 #include "imufusion/mesh.hpp"
@@ -101,10 +103,9 @@ class TriangleGrid {
     const double r2 = radius * radius;
     auto near = [&](std::uint32_t t) {
       const auto& tri = mesh_.triangles[t];
-      const Eigen::Vector3d q =
-          closest_on_triangle(p, mesh_.vertices[tri[0]].cast<double>(),
-                              mesh_.vertices[tri[1]].cast<double>(),
-                              mesh_.vertices[tri[2]].cast<double>());
+      const Eigen::Vector3d q = closest_on_triangle(p, mesh_.vertices[tri[0]].cast<double>(),
+                                                    mesh_.vertices[tri[1]].cast<double>(),
+                                                    mesh_.vertices[tri[2]].cast<double>());
       return (q - p).squaredNorm() <= r2;
     };
     const Eigen::Vector3i a = cell_of(p - Eigen::Vector3d::Constant(radius));
@@ -134,6 +135,18 @@ class TriangleGrid {
   std::unordered_map<std::uint64_t, std::pair<std::size_t, std::size_t>> ranges_;
   std::vector<std::uint32_t> large_;
 };
+
+// Runs work(begin, end) over [0, n) split into one contiguous chunk per hardware thread.
+void parallel_chunks(std::size_t n, const std::function<void(std::size_t, std::size_t)>& work) {
+  const std::size_t threads = std::clamp<std::size_t>(std::thread::hardware_concurrency(), 1,
+                                                      std::max<std::size_t>(1, n / 4096));
+  std::vector<std::thread> pool;
+  for (std::size_t t = 1; t < threads; ++t) {
+    pool.emplace_back(work, n * t / threads, n * (t + 1) / threads);
+  }
+  work(0, n / threads);
+  for (auto& thread : pool) thread.join();
+}
 
 double quantile(std::vector<double>& values, double q) {
   const auto k = static_cast<std::size_t>(std::floor(q * static_cast<double>(values.size() - 1)));
@@ -175,24 +188,31 @@ Result<MeshAccuracy> evaluate_mesh(const Mesh& mesh, const synth::Scene& scene,
   }
   if (area > 0.0) {
     const double wanted = std::ceil(area / (options.sample_spacing * options.sample_spacing));
-    const std::size_t n =
-        std::max<std::size_t>(1, std::min<std::size_t>(options.max_samples,
-                                                       static_cast<std::size_t>(wanted)));
-    UniformSequence uniform(options.seed);
-    std::vector<double> distances;
-    distances.reserve(n);
-    std::size_t t = 0;
-    for (std::size_t k = 0; k < n; ++k) {
-      const double target = (static_cast<double>(k) + uniform.next()) / static_cast<double>(n) * area;
-      while (t + 1 < cumulative.size() && cumulative[t] <= target) ++t;
-      const auto& tri = mesh.triangles[t];
-      // Uniform point in the triangle (Osada et al. 2002).
-      const double r1 = std::sqrt(uniform.next()), r2 = uniform.next();
-      const Eigen::Vector3d p = (1.0 - r1) * mesh.vertices[tri[0]].cast<double>() +
-                                r1 * (1.0 - r2) * mesh.vertices[tri[1]].cast<double>() +
-                                r1 * r2 * mesh.vertices[tri[2]].cast<double>();
-      distances.push_back(synth::distance_to_surface(scene, p));
-    }
+    const std::size_t n = std::max<std::size_t>(
+        1, std::min<std::size_t>(options.max_samples, static_cast<std::size_t>(wanted)));
+    std::vector<double> distances(n);
+    parallel_chunks(n, [&](std::size_t begin, std::size_t end) {
+      std::size_t t = 0;
+      for (std::size_t k = begin; k < end; ++k) {
+        // Each sample draws from its own stream, so the result does not depend on the chunks.
+        UniformSequence uniform(options.seed * 0x9E3779B97F4A7C15ull + k);
+        const double target =
+            (static_cast<double>(k) + uniform.next()) / static_cast<double>(n) * area;
+        if (k == begin) {
+          t = static_cast<std::size_t>(
+              std::upper_bound(cumulative.begin(), cumulative.end(), target) - cumulative.begin());
+        }
+        while (t + 1 < cumulative.size() && cumulative[t] <= target) ++t;
+        t = std::min(t, cumulative.size() - 1);
+        const auto& tri = mesh.triangles[t];
+        // Uniform point in the triangle (Osada et al. 2002).
+        const double r1 = std::sqrt(uniform.next()), r2 = uniform.next();
+        const Eigen::Vector3d p = (1.0 - r1) * mesh.vertices[tri[0]].cast<double>() +
+                                  r1 * (1.0 - r2) * mesh.vertices[tri[1]].cast<double>() +
+                                  r1 * r2 * mesh.vertices[tri[2]].cast<double>();
+        distances[k] = synth::distance_to_surface(scene, p);
+      }
+    });
     result.mesh_samples = distances.size();
     result.accuracy_mean =
         std::accumulate(distances.begin(), distances.end(), 0.0) / static_cast<double>(n);
@@ -205,12 +225,14 @@ Result<MeshAccuracy> evaluate_mesh(const Mesh& mesh, const synth::Scene& scene,
 
   // Completeness: exact point-to-triangle distances against the triangles near each point.
   const TriangleGrid grid(mesh, options.completeness_threshold);
-  std::size_t covered = 0;
-  for (const Eigen::Vector3d& p : reference_points) {
-    if (grid.any_within(p, options.completeness_threshold)) ++covered;
-  }
-  result.completeness =
-      static_cast<double>(covered) / static_cast<double>(reference_points.size());
+  std::vector<std::uint8_t> near(reference_points.size(), 0);
+  parallel_chunks(reference_points.size(), [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      near[i] = grid.any_within(reference_points[i], options.completeness_threshold) ? 1 : 0;
+    }
+  });
+  const auto covered = static_cast<std::size_t>(std::count(near.begin(), near.end(), 1));
+  result.completeness = static_cast<double>(covered) / static_cast<double>(reference_points.size());
   return result;
 }
 

@@ -46,8 +46,8 @@ int add_view(tinygltf::Model& model, const void* bytes, std::size_t size, int ta
   return static_cast<int>(model.bufferViews.size() - 1);
 }
 
-int add_accessor(tinygltf::Model& model, int view, int component_type, int type,
-                 std::size_t count, bool normalized = false) {
+int add_accessor(tinygltf::Model& model, int view, int component_type, int type, std::size_t count,
+                 bool normalized = false) {
   tinygltf::Accessor accessor;
   accessor.bufferView = view;
   accessor.byteOffset = 0;
@@ -75,8 +75,8 @@ tinygltf::Model make_model(const Mesh& mesh) {
     for (int a = 0; a < 3; ++a) floats[3 * v + static_cast<std::size_t>(a)] = mesh.vertices[v][a];
   }
   int view = add_view(model, floats.data(), floats.size() * sizeof(float), kArrayBuffer);
-  const int position = add_accessor(model, view, TINYGLTF_COMPONENT_TYPE_FLOAT,
-                                    TINYGLTF_TYPE_VEC3, n);
+  const int position =
+      add_accessor(model, view, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
   // The spec requires the bounds of POSITION (validators recompute and compare them).
   Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
   Eigen::Vector3f hi = -lo;
@@ -107,8 +107,8 @@ tinygltf::Model make_model(const Mesh& mesh) {
   std::vector<std::uint32_t> indices;
   indices.reserve(3 * mesh.triangles.size());
   for (const auto& tri : mesh.triangles) indices.insert(indices.end(), tri.begin(), tri.end());
-  view = add_view(model, indices.data(), indices.size() * sizeof(std::uint32_t),
-                  kElementArrayBuffer);
+  view =
+      add_view(model, indices.data(), indices.size() * sizeof(std::uint32_t), kElementArrayBuffer);
   primitive.indices = add_accessor(model, view, TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT,
                                    TINYGLTF_TYPE_SCALAR, indices.size());
 
@@ -142,8 +142,8 @@ class AccessorView {
   static Result<AccessorView> open(const tinygltf::Model& model, int index,
                                    const std::string& what) {
     if (index < 0 || static_cast<std::size_t>(index) >= model.accessors.size()) {
-      return make_error(ErrorCode::kParseError, what + ": accessor " + std::to_string(index) +
-                                                    " does not exist");
+      return make_error(ErrorCode::kParseError,
+                        what + ": accessor " + std::to_string(index) + " does not exist");
     }
     const tinygltf::Accessor& accessor = model.accessors[static_cast<std::size_t>(index)];
     if (accessor.sparse.isSparse || accessor.bufferView < 0) {
@@ -155,8 +155,8 @@ class AccessorView {
     AccessorView out;
     out.accessor_ = &accessor;
     out.components_ = tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(accessor.type));
-    const int component_size = tinygltf::GetComponentSizeInBytes(
-        static_cast<std::uint32_t>(accessor.componentType));
+    const int component_size =
+        tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(accessor.componentType));
     const int stride = accessor.ByteStride(view);
     if (out.components_ <= 0 || component_size <= 0 || stride <= 0) {
       return make_error(ErrorCode::kParseError,
@@ -168,7 +168,8 @@ class AccessorView {
     const std::size_t element = out.component_size_ * static_cast<std::size_t>(out.components_);
     const std::size_t needed =
         accessor.count == 0 ? 0 : out.stride_ * (accessor.count - 1) + element;
-    if (out.begin_ + needed > buffer.data.size() || accessor.byteOffset + needed > view.byteLength) {
+    if (out.begin_ + needed > buffer.data.size() ||
+        accessor.byteOffset + needed > view.byteLength) {
       return make_error(ErrorCode::kParseError,
                         what + ": accessor " + std::to_string(index) + " runs past its buffer");
     }
@@ -269,7 +270,8 @@ Status append_primitive(const tinygltf::Model& model, const tinygltf::Primitive&
     for (std::size_t v = 0; v < n; ++v) {
       for (int c = 0; c < 3; ++c) {
         const double value = std::clamp(colors->at(v, c), 0.0, 1.0) * 255.0;
-        mesh.colors[base + v][static_cast<std::size_t>(c)] = static_cast<std::uint8_t>(std::lround(value));
+        mesh.colors[base + v][static_cast<std::size_t>(c)] =
+            static_cast<std::uint8_t>(std::lround(value));
       }
     }
   }
@@ -294,9 +296,9 @@ Status append_primitive(const tinygltf::Model& model, const tinygltf::Primitive&
     std::array<std::uint32_t, 3> tri{};
     for (std::size_t k = 0; k < 3; ++k) {
       if (indices[i + k] >= n) {
-        return make_error(ErrorCode::kParseError, what + ": index " + std::to_string(indices[i + k]) +
-                                                      " is beyond " + std::to_string(n) +
-                                                      " vertices");
+        return make_error(ErrorCode::kParseError,
+                          what + ": index " + std::to_string(indices[i + k]) + " is beyond " +
+                              std::to_string(n) + " vertices");
       }
       tri[k] = static_cast<std::uint32_t>(base + indices[i + k]);
     }

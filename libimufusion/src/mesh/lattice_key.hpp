@@ -1,10 +1,9 @@
 #pragma once
 // 64-bit keys for blocks and lattice edges of the sparse volume, for hash maps.
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <cstdlib>
-
-#include <Eigen/Core>
 
 #include "imufusion/volume.hpp"
 

@@ -191,17 +191,17 @@ class Mesher {
   const std::unordered_map<std::uint64_t, std::size_t>& index_;
   std::vector<LocalVoxel> local_ = std::vector<LocalVoxel>(kGatherVoxels);
   // Vertex index per (axis, lower end) of the edges whose lower end lies in 0 .. kBlockSide.
-  std::vector<int> edge_vertex_ = std::vector<int>(3 * (kBlockSide + 1) * (kBlockSide + 1) *
-                                                   (kBlockSide + 1));
+  std::vector<int> edge_vertex_ =
+      std::vector<int>(3 * (kBlockSide + 1) * (kBlockSide + 1) * (kBlockSide + 1));
 };
 
 }  // namespace
 
 Result<Mesh> extract_mesh(const HostVolume& volume, const MeshOptions& options) {
   if (!(volume.voxel_size > 0.0f) || !std::isfinite(volume.voxel_size)) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      "extract_mesh: voxel size " + std::to_string(volume.voxel_size) +
-                          " m is not positive");
+    return make_error(
+        ErrorCode::kInvalidArgument,
+        "extract_mesh: voxel size " + std::to_string(volume.voxel_size) + " m is not positive");
   }
   if (!(options.min_weight > 0.0f)) {
     return make_error(ErrorCode::kInvalidArgument,
@@ -239,7 +239,8 @@ Result<Mesh> extract_mesh(const HostVolume& volume, const MeshOptions& options) 
   std::vector<BlockMesh> parts(order.size());
   unsigned threads = options.threads > 0 ? static_cast<unsigned>(options.threads)
                                          : std::max(1u, std::thread::hardware_concurrency());
-  threads = static_cast<unsigned>(std::min<std::size_t>(threads, std::max<std::size_t>(1, order.size())));
+  threads =
+      static_cast<unsigned>(std::min<std::size_t>(threads, std::max<std::size_t>(1, order.size())));
   std::atomic<std::size_t> next{0};
   auto work = [&] {
     Mesher mesher(volume, options, index);

@@ -14,8 +14,8 @@
 
 namespace imufusion::mesh {
 
-inline constexpr std::array<std::array<int, 3>, 8> kCorner = {{
-    {0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}}};
+inline constexpr std::array<std::array<int, 3>, 8> kCorner = {
+    {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}}};
 
 inline constexpr std::array<std::array<int, 2>, 12> kEdgeCorners = {{{0, 1},
                                                                      {1, 2},

@@ -47,8 +47,8 @@ Status check_mesh_for(const Mesh& mesh, const std::string& what) {
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     for (std::uint32_t v : mesh.triangles[t]) {
       if (v >= n) {
-        return fail("triangle " + std::to_string(t) + " uses vertex " + std::to_string(v) +
-                    " of " + std::to_string(n));
+        return fail("triangle " + std::to_string(t) + " uses vertex " + std::to_string(v) + " of " +
+                    std::to_string(n));
       }
     }
   }

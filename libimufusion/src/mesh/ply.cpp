@@ -298,7 +298,8 @@ Result<Mesh> read_ply(const std::filesystem::path& path) {
       }
       if (is_vertex) {
         for (int a = 0; a < 3; ++a) {
-          mesh.vertices[item][a] = static_cast<float>(values[static_cast<std::size_t>(position[a])]);
+          mesh.vertices[item][a] =
+              static_cast<float>(values[static_cast<std::size_t>(position[a])]);
           if (has_normals) {
             mesh.normals[item][a] = static_cast<float>(values[static_cast<std::size_t>(normal[a])]);
           }
@@ -314,8 +315,8 @@ Result<Mesh> read_ply(const std::filesystem::path& path) {
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     for (std::uint32_t v : mesh.triangles[t]) {
       if (v >= mesh.vertices.size()) {
-        return parse_error("triangle " + std::to_string(t) + " uses vertex " +
-                           std::to_string(v) + " of " + std::to_string(mesh.vertices.size()));
+        return parse_error("triangle " + std::to_string(t) + " uses vertex " + std::to_string(v) +
+                           " of " + std::to_string(mesh.vertices.size()));
       }
     }
   }

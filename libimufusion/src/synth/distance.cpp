@@ -34,7 +34,8 @@ double distance_to_surface(const Scene& scene, const Eigen::Vector3d& point) {
   for (const Cylinder& cylinder : scene.cylinders) {
     const double radial = (point.head<2>() - cylinder.center_xy).norm() - cylinder.radius;
     const double half_height = 0.5 * (cylinder.z_max - cylinder.z_min);
-    const double axial = std::abs(point.z() - 0.5 * (cylinder.z_min + cylinder.z_max)) - half_height;
+    const double axial =
+        std::abs(point.z() - 0.5 * (cylinder.z_min + cylinder.z_max)) - half_height;
     const double outside = std::hypot(std::max(radial, 0.0), std::max(axial, 0.0));
     best = std::min(best, std::abs(outside + std::min(std::max(radial, axial), 0.0)));
   }
