@@ -49,7 +49,11 @@ class Mesher {
       : volume_(volume), options_(options), index_(index) {}
 
   void mesh_block(const VolumeBlock& block, BlockMesh& out) {
-    gather(block);
+    find_neighbours(block);
+    // Cell corners first: most blocks hold no zero crossing (they lie within the truncation band
+    // on one side of the surface), and those need neither the cells nor the outer layers.
+    if (!gather(0, kBlockSide, false)) return;
+    gather(-1, kBlockSide + 1, true);
     std::fill(edge_vertex_.begin(), edge_vertex_.end(), -1);
     const Eigen::Vector3i origin = block.coord * kBlockSide;
     for (int k = 0; k < kBlockSide; ++k) {
@@ -60,33 +64,41 @@ class Mesher {
   }
 
  private:
-  void gather(const VolumeBlock& block) {
-    std::array<const VolumeBlock*, 27> neighbours{};
+  void find_neighbours(const VolumeBlock& block) {
     for (int dz = -1; dz <= 1; ++dz) {
       for (int dy = -1; dy <= 1; ++dy) {
         for (int dx = -1; dx <= 1; ++dx) {
           const auto it = index_.find(mesh::block_key(block.coord + Eigen::Vector3i(dx, dy, dz)));
-          neighbours[(dx + 1) + 3 * ((dy + 1) + 3 * (dz + 1))] =
+          neighbours_[(dx + 1) + 3 * ((dy + 1) + 3 * (dz + 1))] =
               it == index_.end() ? nullptr : &volume_.blocks[it->second];
         }
       }
     }
+  }
+
+  // Copies the local coordinates lo .. hi (on every axis) from the blocks; with `skip_inner` the
+  // cell corners 0 .. kBlockSide, gathered before, are left as they are. Returns whether the
+  // usable voxels copied include both signs.
+  bool gather(int lo, int hi, bool skip_inner) {
     // Block offset and voxel index of a local coordinate in -1 .. kBlockSide + 1.
     auto split = [](int c, int& offset, int& voxel) {
       offset = c < 0 ? -1 : (c >= kBlockSide ? 1 : 0);
       voxel = c - offset * kBlockSide;
     };
-    for (int z = -1; z <= kBlockSide + 1; ++z) {
+    auto inner = [](int c) { return c >= 0 && c <= kBlockSide; };
+    bool negative = false, positive = false;
+    for (int z = lo; z <= hi; ++z) {
       int oz = 0, vz = 0;
       split(z, oz, vz);
-      for (int y = -1; y <= kBlockSide + 1; ++y) {
+      for (int y = lo; y <= hi; ++y) {
         int oy = 0, vy = 0;
         split(y, oy, vy);
-        for (int x = -1; x <= kBlockSide + 1; ++x) {
+        for (int x = lo; x <= hi; ++x) {
+          if (skip_inner && inner(x) && inner(y) && inner(z)) continue;
           int ox = 0, vx = 0;
           split(x, ox, vx);
           LocalVoxel& local = local_[gather_index(x, y, z)];
-          const VolumeBlock* source = neighbours[(ox + 1) + 3 * ((oy + 1) + 3 * (oz + 1))];
+          const VolumeBlock* source = neighbours_[(ox + 1) + 3 * ((oy + 1) + 3 * (oz + 1))];
           if (source == nullptr) {
             local.usable = false;
             continue;
@@ -95,9 +107,11 @@ class Mesher {
           local.usable = voxel.weight >= options_.min_weight && std::isfinite(voxel.tsdf);
           local.tsdf = voxel.tsdf;
           local.color = voxel.color;
+          if (local.usable) (voxel.tsdf < 0.0f ? negative : positive) = true;
         }
       }
     }
+    return negative && positive;
   }
 
   const LocalVoxel& at(int x, int y, int z) const { return local_[gather_index(x, y, z)]; }
@@ -189,6 +203,7 @@ class Mesher {
   const HostVolume& volume_;
   const MeshOptions& options_;
   const std::unordered_map<std::uint64_t, std::size_t>& index_;
+  std::array<const VolumeBlock*, 27> neighbours_{};
   std::vector<LocalVoxel> local_ = std::vector<LocalVoxel>(kGatherVoxels);
   // Vertex index per (axis, lower end) of the edges whose lower end lies in 0 .. kBlockSide.
   std::vector<int> edge_vertex_ =
