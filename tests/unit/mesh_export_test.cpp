@@ -178,6 +178,16 @@ TEST_F(MeshExport, ReadErrorsNameTheFile) {
   EXPECT_NE(truncated.error().message.find("truncated"), std::string::npos);
 
   {
+    // A count the file cannot hold is refused before anything is allocated for it.
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    out << "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000000\n"
+           "property float x\nproperty float y\nproperty float z\nend_header\n";
+  }
+  auto huge = read_ply(path);
+  ASSERT_FALSE(huge.ok());
+  EXPECT_EQ(huge.error().code, ErrorCode::kParseError);
+
+  {
     std::ofstream out(path, std::ios::trunc);
     out << "ply\nformat ascii 1.0\nelement vertex 0\nend_header\n";
   }

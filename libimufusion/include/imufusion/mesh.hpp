@@ -84,7 +84,8 @@ struct SurfaceSampleOptions {
 };
 
 /// Points of the true surface seen from the given camera poses (T_world_camera), world frame,
-/// metres: exact ray casts through a pixel grid, thinned to one point per cell.
+/// metres: exact ray casts through a pixel grid, thinned to one point per cell. Empty when an
+/// option or the focal length is not positive.
 std::vector<Eigen::Vector3d> observed_surface_points(const synth::Scene& scene,
                                                      const Trajectory& poses,
                                                      const Intrinsics& intrinsics,

@@ -64,7 +64,7 @@ Eigen::Vector3d closest_on_triangle(const Eigen::Vector3d& p, const Eigen::Vecto
 class TriangleGrid {
  public:
   TriangleGrid(const Mesh& mesh, double cell) : mesh_(mesh), cell_(cell) {
-    constexpr long kMaxCellsPerTriangle = 64;
+    constexpr double kMaxCellsPerTriangle = 64;
     std::vector<std::pair<std::uint64_t, std::uint32_t>> entries;
     entries.reserve(mesh.triangles.size() * 2);
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
@@ -76,7 +76,7 @@ class TriangleGrid {
       }
       const Eigen::Vector3i a = cell_of(lo), b = cell_of(hi);
       const Eigen::Vector3i extent = b - a + Eigen::Vector3i::Ones();
-      if (static_cast<long>(extent.x()) * extent.y() * extent.z() > kMaxCellsPerTriangle) {
+      if (static_cast<double>(extent.x()) * extent.y() * extent.z() > kMaxCellsPerTriangle) {
         large_.push_back(static_cast<std::uint32_t>(t));
         continue;
       }
@@ -125,8 +125,10 @@ class TriangleGrid {
   }
 
  private:
+  // Clamped so that far-off (but finite) points convert safely; such cells are empty anyway.
   Eigen::Vector3i cell_of(const Eigen::Vector3d& p) const {
-    return (p / cell_).array().floor().cast<int>();
+    constexpr double kLimit = 1 << 28;
+    return (p / cell_).array().floor().cwiseMax(-kLimit).cwiseMin(kLimit).cast<int>();
   }
 
   const Mesh& mesh_;

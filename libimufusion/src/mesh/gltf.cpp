@@ -150,6 +150,14 @@ class AccessorView {
       return make_error(ErrorCode::kUnsupported,
                         what + ": accessor " + std::to_string(index) + " is sparse or has no data");
     }
+    if (static_cast<std::size_t>(accessor.bufferView) >= model.bufferViews.size() ||
+        model.bufferViews[static_cast<std::size_t>(accessor.bufferView)].buffer < 0 ||
+        static_cast<std::size_t>(
+            model.bufferViews[static_cast<std::size_t>(accessor.bufferView)].buffer) >=
+            model.buffers.size()) {
+      return make_error(ErrorCode::kParseError, what + ": accessor " + std::to_string(index) +
+                                                    " refers to a missing buffer");
+    }
     const auto& view = model.bufferViews[static_cast<std::size_t>(accessor.bufferView)];
     const auto& buffer = model.buffers[static_cast<std::size_t>(view.buffer)];
     AccessorView out;
@@ -269,7 +277,8 @@ Status append_primitive(const tinygltf::Model& model, const tinygltf::Primitive&
     }
     for (std::size_t v = 0; v < n; ++v) {
       for (int c = 0; c < 3; ++c) {
-        const double value = std::clamp(colors->at(v, c), 0.0, 1.0) * 255.0;
+        const double raw = colors->at(v, c);
+        const double value = std::isfinite(raw) ? std::clamp(raw, 0.0, 1.0) * 255.0 : 0.0;
         mesh.colors[base + v][static_cast<std::size_t>(c)] =
             static_cast<std::uint8_t>(std::lround(value));
       }
@@ -280,6 +289,14 @@ Status append_primitive(const tinygltf::Model& model, const tinygltf::Primitive&
   if (primitive.indices >= 0) {
     auto view = AccessorView::open(model, primitive.indices, what);
     if (!view.ok()) return view.error();
+    const int type = model.accessors[static_cast<std::size_t>(primitive.indices)].componentType;
+    if (type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+        type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+        type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT) {
+      return make_error(ErrorCode::kParseError,
+                        what + ": indices are not unsigned integers (component type " +
+                            std::to_string(type) + ")");
+    }
     indices.resize(view->count());
     for (std::size_t i = 0; i < indices.size(); ++i) {
       indices[i] = static_cast<std::uint32_t>(view->at(i, 0));

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -125,7 +126,8 @@ class Reader {
 std::uint8_t to_color_byte(double value, PlyType type) {
   if (type == PlyType::kFloat32 || type == PlyType::kFloat64) value *= 255.0;  // [0, 1] colours
   if (type == PlyType::kUint16) value /= 257.0;
-  return static_cast<std::uint8_t>(std::clamp(std::lround(value), 0L, 255L));
+  if (!std::isfinite(value)) return 0;
+  return static_cast<std::uint8_t>(std::lround(std::clamp(value, 0.0, 255.0)));
 }
 
 }  // namespace
@@ -253,6 +255,16 @@ Result<Mesh> read_ply(const std::filesystem::path& path) {
     std::array<int, 3> position{column("x"), column("y"), column("z")};
     std::array<int, 3> normal{column("nx"), column("ny"), column("nz")};
     std::array<int, 3> color{column("red"), column("green"), column("blue")};
+    // Each item takes at least its scalars and list counts: refuse counts the file cannot hold
+    // before allocating for them.
+    std::size_t min_item_size = 0;
+    for (const Property& property : element.properties) {
+      min_item_size += type_size(property.is_list ? property.count_type : property.type);
+    }
+    if (min_item_size > 0 && element.count > (bytes->size() - offset) / min_item_size) {
+      return parse_error("header declares " + std::to_string(element.count) + " " + element.name +
+                         " items, more than the file holds (truncated)");
+    }
     if (is_vertex) {
       if (position[0] < 0 || position[1] < 0 || position[2] < 0) {
         return parse_error("vertex element lacks x, y or z");
@@ -284,7 +296,11 @@ Result<Mesh> read_ply(const std::filesystem::path& path) {
           if (!reader.read(property.type, index)) {
             return parse_error("truncated in " + element.name + " " + std::to_string(item));
           }
-          polygon.push_back(static_cast<std::uint32_t>(std::max(0.0, index)));
+          if (!(index >= 0.0 && index < 4294967296.0)) {
+            return parse_error(element.name + " " + std::to_string(item) + " has vertex index " +
+                               std::to_string(index));
+          }
+          polygon.push_back(static_cast<std::uint32_t>(index));
         }
         if (is_face && (property.name == "vertex_indices" || property.name == "vertex_index")) {
           if (polygon.size() < 3) {
@@ -298,10 +314,15 @@ Result<Mesh> read_ply(const std::filesystem::path& path) {
       }
       if (is_vertex) {
         for (int a = 0; a < 3; ++a) {
-          mesh.vertices[item][a] =
-              static_cast<float>(values[static_cast<std::size_t>(position[a])]);
+          const double x = values[static_cast<std::size_t>(position[a])];
+          if (!(std::abs(x) <= std::numeric_limits<float>::max())) {
+            return parse_error("vertex " + std::to_string(item) + " has coordinate " +
+                               std::to_string(x));
+          }
+          mesh.vertices[item][a] = static_cast<float>(x);
           if (has_normals) {
-            mesh.normals[item][a] = static_cast<float>(values[static_cast<std::size_t>(normal[a])]);
+            const double n = values[static_cast<std::size_t>(normal[a])];
+            mesh.normals[item][a] = std::abs(n) <= 1e6 ? static_cast<float>(n) : 0.0f;
           }
           if (!mesh.colors.empty()) {
             const auto c = static_cast<std::size_t>(color[a]);

@@ -34,7 +34,8 @@ std::vector<Eigen::Vector3d> observed_surface_points(const synth::Scene& scene,
         const auto hit = synth::intersect(scene, origin, ray);
         if (!hit || hit->t < options.min_depth || hit->t > options.max_depth) continue;
         if (std::abs(hit->normal.dot(ray)) < min_cos * ray.norm()) continue;
-        const Eigen::Vector3d cell = (hit->point / options.cell_size).array().floor();
+        const Eigen::Vector3d cell =
+            (hit->point / options.cell_size).array().floor().cwiseMax(-1e9).cwiseMin(1e9);
         const Eigen::Vector3i c = cell.cast<int>();
         const std::uint64_t key = mesh::pack20(c);
         if (occupied.insert(key).second) points.push_back(hit->point);
