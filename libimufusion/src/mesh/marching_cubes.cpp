@@ -35,8 +35,52 @@ constexpr int gather_index(int x, int y, int z) {
   return (x + 1) + kGather * ((y + 1) + kGather * (z + 1));
 }
 
+// Edge keys use bits 0-61 (mesh::edge_key); bit 63 marks edges other blocks may share.
+constexpr std::uint64_t kSharedBit = std::uint64_t{1} << 63;
+
+// Edge key -> welded vertex index: open addressing with linear probing, several times faster
+// than std::unordered_map for the millions of lookups of a large mesh.
+class EdgeVertexMap {
+ public:
+  explicit EdgeVertexMap(std::size_t expected) {
+    std::size_t capacity = 16;
+    int bits = 4;
+    while (capacity < 2 * expected) {
+      capacity *= 2;
+      ++bits;
+    }
+    mask_ = capacity - 1;
+    shift_ = 64 - bits;
+    keys_.assign(capacity, kEmpty);
+    values_.resize(capacity);
+  }
+
+  // The value stored for `key`, storing `value` first when the key is new.
+  std::uint32_t find_or_insert(std::uint64_t key, std::uint32_t value) {
+    // Fibonacci hashing: the top bits of the product mix every bit of the key.
+    std::size_t i = static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> shift_);
+    for (;; i = (i + 1) & mask_) {
+      if (keys_[i] == key) return values_[i];
+      if (keys_[i] == kEmpty) {
+        keys_[i] = key;
+        values_[i] = value;
+        return value;
+      }
+    }
+  }
+
+ private:
+  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};  // not a valid edge key
+  std::size_t mask_ = 0;
+  int shift_ = 60;
+  std::vector<std::uint64_t> keys_;
+  std::vector<std::uint32_t> values_;
+};
+
 struct BlockMesh {
-  std::vector<std::uint64_t> edge_keys;  // one per vertex
+  // Per vertex: its lattice edge, with kSharedBit set when cells of other blocks may use the
+  // edge too (its lower end lies on the block's lower faces or in the next block).
+  std::vector<std::uint64_t> edge_keys;
   std::vector<Eigen::Vector3f> vertices, normals;
   std::vector<std::array<std::uint8_t, 3>> colors;
   std::vector<std::array<std::uint32_t, 3>> triangles;  // local vertex indices
@@ -185,8 +229,11 @@ class Mesher {
     }
 
     slot = static_cast<int>(out.vertices.size());
+    const bool shared =
+        x == 0 || y == 0 || z == 0 || x == kBlockSide || y == kBlockSide || z == kBlockSide;
     out.edge_keys.push_back(
-        mesh::edge_key(Eigen::Vector3i(origin.x() + x, origin.y() + y, origin.z() + z), axis));
+        mesh::edge_key(Eigen::Vector3i(origin.x() + x, origin.y() + y, origin.z() + z), axis) |
+        (shared ? kSharedBit : 0));
     out.vertices.push_back((lattice * static_cast<double>(volume_.voxel_size)).cast<float>());
     out.normals.push_back(normal);
     if (options_.colors) {
@@ -269,32 +316,39 @@ Result<Mesh> extract_mesh(const HostVolume& volume, const MeshOptions& options) 
   for (auto& thread : pool) thread.join();
 
   Mesh result;
-  std::size_t vertex_bound = 0, triangle_count = 0;
+  std::size_t vertex_bound = 0, shared_bound = 0, triangle_count = 0;
   for (const BlockMesh& part : parts) {
     vertex_bound += part.vertices.size();
     triangle_count += part.triangles.size();
+    for (std::uint64_t key : part.edge_keys) shared_bound += (key & kSharedBit) != 0;
   }
+  result.vertices.reserve(vertex_bound);
+  result.normals.reserve(vertex_bound);
+  if (options.colors) result.colors.reserve(vertex_bound);
   result.triangles.reserve(triangle_count);
-  std::unordered_map<std::uint64_t, std::uint32_t> welded;
-  welded.reserve(vertex_bound);
+  // Only edges on block faces can appear in several parts; the others are new vertices.
+  EdgeVertexMap welded(shared_bound);
   std::vector<std::uint32_t> remap;
   for (BlockMesh& part : parts) {
     remap.resize(part.vertices.size());
     for (std::size_t v = 0; v < part.vertices.size(); ++v) {
-      const auto [it, inserted] =
-          welded.emplace(part.edge_keys[v], static_cast<std::uint32_t>(result.vertices.size()));
-      if (inserted) {
+      const auto next_index = static_cast<std::uint32_t>(result.vertices.size());
+      const std::uint64_t key = part.edge_keys[v];
+      remap[v] = (key & kSharedBit) != 0 ? welded.find_or_insert(key, next_index) : next_index;
+      if (remap[v] == next_index) {
         result.vertices.push_back(part.vertices[v]);
         result.normals.push_back(part.normals[v]);
         if (options.colors) result.colors.push_back(part.colors[v]);
       }
-      remap[v] = it->second;
     }
     for (const auto& tri : part.triangles) {
       result.triangles.push_back({remap[tri[0]], remap[tri[1]], remap[tri[2]]});
     }
     part = BlockMesh{};  // release as we go: the parts together are as large as the mesh
   }
+  result.vertices.shrink_to_fit();
+  result.normals.shrink_to_fit();
+  result.colors.shrink_to_fit();
   return result;
 }
 
