@@ -9,9 +9,11 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "imufusion/mesh.hpp"
+#include "imufusion/sequence.hpp"
 #include "imufusion/synth.hpp"
 #include "imufusion/trajectory.hpp"
 
@@ -22,6 +24,7 @@ constexpr const char* kUsage =
     "                           --groundtruth FILE [--intrinsics FX FY CX CY] [--size WxH]\n"
     "                           [--threshold M] [--spacing M] [--frame-step N] [--pixel-step N]\n"
     "                           [--json]\n"
+    "       imufusion-mesh-eval MESH.ply|MESH.glb --sequence DIR [options as above]\n"
     "\n"
     "Compares MESH (world frame, metres) with the synthetic scene it was scanned from.\n"
     "Reference points: the true surface seen by exact ray casts from the GROUNDTRUTH poses (TUM\n"
@@ -30,6 +33,9 @@ constexpr const char* kUsage =
     "surface (at most 4 million samples). Completeness: fraction of reference points within the\n"
     "threshold of the mesh.\n"
     "\n"
+    "  --sequence DIR         an imufusion-synth sequence: scene and seed from its info.txt,\n"
+    "                         poses from groundtruth.txt, camera from calibration.txt and the\n"
+    "                         image size (the options below override each)\n"
     "  --scene, --seed        the scene of imufusion-synth (the seed changes only colours)\n"
     "  --groundtruth FILE     the sequence's groundtruth.txt\n"
     "  --intrinsics FX FY CX CY  pinhole intrinsics, pixels (default: the synthetic camera)\n"
@@ -45,11 +51,11 @@ constexpr int kExitInputError = 1;
 constexpr int kExitUsage = 2;
 
 struct Arguments {
-  std::string mesh, groundtruth;
+  std::string mesh, groundtruth, sequence;
   std::optional<imufusion::synth::SceneKind> scene;
   std::optional<std::uint64_t> seed;
   std::optional<std::array<double, 4>> intrinsics;
-  int width = 640, height = 480;
+  std::optional<std::pair<int, int>> size;  // width, height
   bool json = false;
   imufusion::MeshEvalOptions eval;
   imufusion::SurfaceSampleOptions samples;
@@ -101,6 +107,10 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& args) {
       const auto value = text ? parse_integer(*text) : std::nullopt;
       if (!value || *value < 0) return usage_error("--seed needs a non-negative whole number");
       args.seed = static_cast<std::uint64_t>(*value);
+    } else if (arg == "--sequence") {
+      const auto text = next_value();
+      if (!text) return usage_error("--sequence needs a directory");
+      args.sequence = *text;
     } else if (arg == "--groundtruth") {
       const auto text = next_value();
       if (!text) return usage_error("--groundtruth needs a file");
@@ -124,8 +134,7 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& args) {
       if (!w || !h || *w <= 0 || *h <= 0 || *w > 100000 || *h > 100000) {
         return usage_error("--size needs WxH with positive whole numbers, e.g. 640x480");
       }
-      args.width = static_cast<int>(*w);
-      args.height = static_cast<int>(*h);
+      args.size = {static_cast<int>(*w), static_cast<int>(*h)};
     } else if (arg == "--threshold") {
       const auto text = next_value();
       const auto value = text ? parse_number(*text) : std::nullopt;
@@ -155,9 +164,11 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& args) {
     return usage_error("expected one MESH file, got " + std::to_string(positional.size()));
   }
   args.mesh = positional[0];
-  if (!args.scene) return usage_error("--scene is required");
-  if (!args.seed) return usage_error("--seed is required");
-  if (args.groundtruth.empty()) return usage_error("--groundtruth is required");
+  if (args.sequence.empty()) {
+    if (!args.scene) return usage_error("--scene is required (or --sequence)");
+    if (!args.seed) return usage_error("--seed is required (or --sequence)");
+    if (args.groundtruth.empty()) return usage_error("--groundtruth is required (or --sequence)");
+  }
   return std::nullopt;
 }
 
@@ -178,13 +189,68 @@ int main(int argc, char** argv) {
     std::cerr << "imufusion-mesh-eval: " << mesh.error().describe() << "\n";
     return kExitInputError;
   }
-  auto poses = imufusion::read_trajectory(args.groundtruth);
-  if (!poses.ok()) {
-    std::cerr << "imufusion-mesh-eval: ground truth " << args.groundtruth << ": "
-              << poses.error().describe() << "\n";
-    return kExitInputError;
+  imufusion::Intrinsics intrinsics = imufusion::synth::default_intrinsics(640, 480);
+  imufusion::Trajectory poses;
+  if (!args.sequence.empty()) {
+    // Scene, seed, poses and camera as recorded; explicit options override them below.
+    imufusion::SequenceOptions open_options;
+    open_options.load_color = false;
+    if (args.intrinsics) {
+      open_options.intrinsics = imufusion::Intrinsics{(*args.intrinsics)[0], (*args.intrinsics)[1],
+                                                      (*args.intrinsics)[2], (*args.intrinsics)[3]};
+    }
+    auto reader = imufusion::SequenceReader::open(args.sequence, open_options);
+    if (!reader.ok()) {
+      std::cerr << "imufusion-mesh-eval: " << reader.error().describe() << "\n";
+      return kExitInputError;
+    }
+    const imufusion::SequenceInfo& info = reader->info();
+    const auto find = [&](const char* key) -> std::string {
+      const auto it = info.info.find(key);
+      return it == info.info.end() ? std::string() : it->second;
+    };
+    if (!args.scene) {
+      args.scene = imufusion::synth::parse_scene_kind(find("scene"));
+      if (!args.scene) {
+        std::cerr << "imufusion-mesh-eval: " << args.sequence
+                  << "/info.txt names no synthetic scene ('scene room|wall|fast'); pass --scene\n";
+        return kExitInputError;
+      }
+    }
+    if (!args.seed) {
+      const auto seed = parse_integer(find("seed"));
+      if (!seed || *seed < 0) {
+        std::cerr << "imufusion-mesh-eval: " << args.sequence
+                  << "/info.txt has no 'seed N' line; pass --seed\n";
+        return kExitInputError;
+      }
+      args.seed = static_cast<std::uint64_t>(*seed);
+    }
+    if (args.groundtruth.empty()) {
+      if (!reader->has_ground_truth()) {
+        std::cerr << "imufusion-mesh-eval: " << args.sequence << " has no groundtruth.txt\n";
+        return kExitInputError;
+      }
+      poses = reader->ground_truth();
+    }
+    if (reader->intrinsics()) intrinsics = *reader->intrinsics();
   }
-  imufusion::Intrinsics intrinsics = imufusion::synth::default_intrinsics(args.width, args.height);
+  if (!args.groundtruth.empty()) {
+    auto read = imufusion::read_trajectory(args.groundtruth);
+    if (!read.ok()) {
+      std::cerr << "imufusion-mesh-eval: ground truth " << args.groundtruth << ": "
+                << read.error().describe() << "\n";
+      return kExitInputError;
+    }
+    poses = std::move(read).value();
+  }
+  if (args.size) {
+    const imufusion::Intrinsics scaled =
+        imufusion::synth::default_intrinsics(args.size->first, args.size->second);
+    if (args.sequence.empty()) intrinsics = scaled;
+    intrinsics.width = scaled.width;
+    intrinsics.height = scaled.height;
+  }
   if (args.intrinsics) {
     intrinsics.fx = (*args.intrinsics)[0];
     intrinsics.fy = (*args.intrinsics)[1];
@@ -192,10 +258,10 @@ int main(int argc, char** argv) {
     intrinsics.cy = (*args.intrinsics)[3];
   }
   const imufusion::synth::Scene scene = imufusion::synth::make_scene(*args.scene, *args.seed);
-  const auto reference =
-      imufusion::observed_surface_points(scene, *poses, intrinsics, args.samples);
+  const auto reference = imufusion::observed_surface_points(scene, poses, intrinsics, args.samples);
   if (reference.empty()) {
-    std::cerr << "imufusion-mesh-eval: the " << poses->size() << " poses of " << args.groundtruth
+    std::cerr << "imufusion-mesh-eval: the " << poses.size() << " poses of "
+              << (args.groundtruth.empty() ? args.sequence : args.groundtruth)
               << " see no surface within the sensor's range\n";
     return kExitInputError;
   }
@@ -215,7 +281,7 @@ int main(int argc, char** argv) {
         {"vertices", mesh->vertices.size()},
         {"triangles", mesh->triangles.size()},
         {"scene", imufusion::synth::to_string(*args.scene)},
-        {"poses", poses->size()},
+        {"poses", poses.size()},
         {"reference_points", result->reference_points},
         {"mesh_samples", result->mesh_samples},
         {"accuracy_mean_m", number(result->accuracy_mean)},
@@ -230,7 +296,7 @@ int main(int argc, char** argv) {
   std::cout << "mesh          " << args.mesh << ": " << mesh->vertices.size() << " vertices, "
             << mesh->triangles.size() << " triangles\n";
   std::cout << "reference     " << result->reference_points << " true-surface points seen from "
-            << poses->size() << " poses (scene " << imufusion::synth::to_string(*args.scene)
+            << poses.size() << " poses (scene " << imufusion::synth::to_string(*args.scene)
             << ")\n";
   std::cout << "accuracy      mean " << format("%.4f", result->accuracy_mean) << "  median "
             << format("%.4f", result->accuracy_median) << "  p90 "

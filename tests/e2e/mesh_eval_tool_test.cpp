@@ -129,6 +129,44 @@ TEST_F(MeshEvalTool, MatchesTheLibraryInTextAndJson) {
   EXPECT_GT(nlohmann::json::parse(out)["completeness"].get<double>(), expected->completeness);
 }
 
+TEST_F(MeshEvalTool, ReadsSceneSeedPosesAndCameraFromASequence) {
+  synth::SynthConfig config;
+  config.scene = synth::SceneKind::kWall;
+  config.seed = 5;
+  config.width = 160;
+  config.height = 120;
+  config.frames = 12;
+  config.color = false;
+  const fs::path sequence = dir_ / "sequence";
+  ASSERT_TRUE(synth::synthesize(config, sequence).ok());
+  const synth::Scene scene = synth::make_scene(synth::SceneKind::kWall, 5);
+  ASSERT_TRUE(write_ply(dir_ / "shell.ply",
+                        room_shell(scene.room->min.cast<float>(), scene.room->max.cast<float>()))
+                  .ok());
+
+  std::string from_sequence, explicit_options, err;
+  const std::string mesh = "'" + (dir_ / "shell.ply").string() + "' --spacing 0.05 --json";
+  ASSERT_EQ(run(mesh + " --sequence '" + sequence.string() + "'", from_sequence, err), 0) << err;
+  ASSERT_EQ(run(mesh + " --scene wall --seed 5 --size 160x120 --groundtruth '" +
+                    (sequence / "groundtruth.txt").string() + "'",
+                explicit_options, err),
+            0)
+      << err;
+  const auto a = nlohmann::json::parse(from_sequence);
+  const auto b = nlohmann::json::parse(explicit_options);
+  EXPECT_EQ(a["scene"], "wall");
+  EXPECT_EQ(a["poses"], 12);
+  EXPECT_EQ(a["reference_points"], b["reference_points"]);
+  EXPECT_EQ(a["completeness"], b["completeness"]);
+  // A 640x480 camera sees more than the recorded 160x120 one at the same pixel step.
+  ASSERT_EQ(
+      run(mesh + " --sequence '" + sequence.string() + "' --size 640x480", explicit_options, err),
+      0)
+      << err;
+  EXPECT_GT(nlohmann::json::parse(explicit_options)["reference_points"].get<int>(),
+            a["reference_points"].get<int>());
+}
+
 TEST_F(MeshEvalTool, UsageAndInputErrors) {
   std::string out, err;
   EXPECT_EQ(run("--help", out, err), 0);
