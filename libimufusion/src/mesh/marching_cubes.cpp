@@ -217,7 +217,7 @@ class Mesher {
     const int dx = axis == 0, dy = axis == 1, dz = axis == 2;
     const LocalVoxel& a = at(x, y, z);
     const LocalVoxel& b = at(x + dx, y + dy, z + dz);
-    const float t = a.tsdf / (a.tsdf - b.tsdf);  // in [0, 1): a >= 0 > b or a < 0 <= b
+    const float t = a.tsdf / (a.tsdf - b.tsdf);  // in [0, 1]: the case says the signs differ
     Eigen::Vector3d lattice(origin.x() + x, origin.y() + y, origin.z() + z);
     lattice[axis] += static_cast<double>(t);
     Eigen::Vector3f normal = (1.0f - t) * gradient(x, y, z) + t * gradient(x + dx, y + dy, z + dz);
