@@ -11,13 +11,14 @@ layout(std430, set = 0, binding = 1) readonly buffer Color { uint color[]; };   
 layout(std430, set = 0, binding = 2) readonly buffer Keys { uint keys[]; };
 layout(std430, set = 0, binding = 3) readonly buffer Values { uint values[]; };
 layout(std430, set = 0, binding = 4) readonly buffer Visible { uint visible[]; };
-layout(std430, set = 0, binding = 5) buffer Voxels { uint voxels[]; };
+layout(std430, set = 0, binding = 5) buffer TsdfWeight { uint tsdf_weight[]; };
+layout(std430, set = 0, binding = 6) buffer Colors { uint colors[]; };
 layout(push_constant) uniform Push { VolumeIntegrateParams p; };
 
 #include "volume_common.glsl"
 
 void main() {
-  uint entry = gl_WorkGroupID.x;
+  uint entry = gl_WorkGroupID.x + gl_NumWorkGroups.x * gl_WorkGroupID.y;
   if (entry >= p.visible_count) return;
   uint slot = visible[entry];
   uint block = values[slot];
@@ -39,18 +40,18 @@ void main() {
     float sdf = d - pc.z;
     if (sdf < -p.truncation) continue;
     float tsdf = min(1.0, sdf / p.truncation);
-    uint index = 2u * (block * uint(VOLUME_BLOCK_VOXELS) + uint(ij.x + VOLUME_BLOCK_SIDE * (ij.y + VOLUME_BLOCK_SIDE * k)));
-    uint word0 = voxels[index];
+    uint index = (block * uint(VOLUME_BLOCK_VOXELS) + uint(ij.x + VOLUME_BLOCK_SIDE * (ij.y + VOLUME_BLOCK_SIDE * k)));
+    uint word0 = tsdf_weight[index];
     uint weight = unpack_weight(word0);
     float old_tsdf = unpack_tsdf(word0);
     float new_tsdf = (old_tsdf * float(weight) + tsdf) / float(weight + 1u);
     uint new_weight = min(weight + 1u, p.max_weight);
-    voxels[index] = pack_voxel_word0(new_tsdf, new_weight);
+    tsdf_weight[index] = pack_voxel_word0(new_tsdf, new_weight);
     if (p.has_color != 0u) {
-      vec3 old_rgb = unpackUnorm4x8(voxels[index + 1u]).rgb;
+      vec3 old_rgb = unpackUnorm4x8(colors[index]).rgb;
       vec3 rgb = unpackUnorm4x8(color[pixel]).rgb;
       vec3 mixed = (old_rgb * float(weight) + rgb) / float(weight + 1u);
-      voxels[index + 1u] = packUnorm4x8(vec4(mixed, 0.0));
+      colors[index] = packUnorm4x8(vec4(mixed, 0.0));
     }
   }
 }

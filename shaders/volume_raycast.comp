@@ -5,14 +5,23 @@
 layout(local_size_x_id = 0, local_size_y_id = 1, local_size_z = 1) in;
 layout(std430, set = 0, binding = 0) readonly buffer Keys { uint keys[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Values { uint values[]; };
-layout(std430, set = 0, binding = 2) readonly buffer Voxels { uint voxels[]; };
-layout(std430, set = 0, binding = 3) writeonly buffer Vertices { vec4 vertices[]; };  // camera frame
-layout(std430, set = 0, binding = 4) writeonly buffer Normals { vec4 normals[]; };    // camera frame
-layout(std430, set = 0, binding = 5) writeonly buffer Shaded { uint shaded[]; };      // RGBA8
-layout(std430, set = 0, binding = 6) writeonly buffer Colors { uint colors[]; };      // RGBA8
+layout(std430, set = 0, binding = 2) readonly buffer TsdfWeight { uint tsdf_weight[]; };
+layout(std430, set = 0, binding = 3) readonly buffer VoxelColors { uint voxel_colors[]; };
+layout(std430, set = 0, binding = 4) writeonly buffer Vertices { vec4 vertices[]; };  // camera frame
+layout(std430, set = 0, binding = 5) writeonly buffer Normals { vec4 normals[]; };    // camera frame
+layout(std430, set = 0, binding = 6) writeonly buffer Shaded { uint shaded[]; };      // RGBA8
+layout(std430, set = 0, binding = 7) writeonly buffer Colors { uint colors[]; };      // RGBA8
 layout(push_constant) uniform Push { VolumeRaycastParams p; };
 
 #include "volume_common.glsl"
+
+// Voxel (tsdf, weight) and colour at offset i inside pool block `block`.
+vec2 voxel_in_block(uint block, ivec3 i, out uint color) {
+  uint index = block * uint(VOLUME_BLOCK_VOXELS) + uint(i.x + VOLUME_BLOCK_SIDE * (i.y + VOLUME_BLOCK_SIDE * i.z));
+  uint word0 = tsdf_weight[index];
+  color = voxel_colors[index];
+  return vec2(unpack_tsdf(word0), float(unpack_weight(word0)));
+}
 
 // The voxel at lattice point l: (tsdf, weight), weight 0 when unallocated or unobserved.
 vec2 voxel_at(ivec3 l, out uint color) {
@@ -20,24 +29,26 @@ vec2 voxel_at(ivec3 l, out uint color) {
   uint block = find_block(b, p.hash_mask);
   color = 0u;
   if (block == VOLUME_NO_BLOCK) return vec2(1.0, 0.0);
-  ivec3 i = l - b * VOLUME_BLOCK_SIDE;
-  uint index = 2u * (block * uint(VOLUME_BLOCK_VOXELS) + uint(i.x + VOLUME_BLOCK_SIDE * (i.y + VOLUME_BLOCK_SIDE * i.z)));
-  uint word0 = voxels[index];
-  color = voxels[index + 1u];
-  return vec2(unpack_tsdf(word0), float(unpack_weight(word0)));
+  return voxel_in_block(block, l - b * VOLUME_BLOCK_SIDE, color);
 }
 
-// Trilinear TSDF at world point w; false when a corner is unobserved.
+// Trilinear TSDF at world point w; false when a corner is unobserved. The 8 corners usually lie
+// in one block (343 of 512 cells): then the block is looked up once.
 bool sample_tsdf(vec3 w, out float tsdf, out vec3 rgb) {
   vec3 g = w / p.voxel_size;
   ivec3 base = ivec3(floor(g));
   vec3 f = g - vec3(base);
   tsdf = 0.0;
   rgb = vec3(0.0);
+  ivec3 b = ivec3(floor(vec3(base) / float(VOLUME_BLOCK_SIDE)));
+  ivec3 local = base - b * VOLUME_BLOCK_SIDE;
+  bool one_block = all(lessThan(local, ivec3(VOLUME_BLOCK_SIDE - 1)));
+  uint block = one_block ? find_block(b, p.hash_mask) : VOLUME_NO_BLOCK;
+  if (one_block && block == VOLUME_NO_BLOCK) return false;
   for (int c = 0; c < 8; ++c) {
     ivec3 o = ivec3(c & 1, (c >> 1) & 1, c >> 2);
     uint packed_color;
-    vec2 v = voxel_at(base + o, packed_color);
+    vec2 v = one_block ? voxel_in_block(block, local + o, packed_color) : voxel_at(base + o, packed_color);
     if (v.y <= 0.0) return false;
     vec3 s = mix(1.0 - f, f, vec3(o));
     float weight = s.x * s.y * s.z;

@@ -100,8 +100,10 @@ struct IcpReduceParams {
 // linear probing of at most VOLUME_MAX_PROBES slots; keys are inserted with atomicCompSwap only.
 // A key packs a block coordinate: x, y in [-1024, 1023] (11 bits each), z in [-512, 511] (10 bits),
 // except (1023, 1023, 511), whose key would be VOLUME_EMPTY_KEY (it counts as out of range).
-// Voxels: two uints each, block-major in the pool: word 0 = int16 tsdf (truncation units *
-// 32767) | uint16 weight << 16, word 1 = r | g << 8 | b << 16.
+// Voxels: 8 bytes each, block-major, in two pool arrays of one uint per voxel (so that each
+// binding stays within the 128 MiB maxStorageBufferRange that every Vulkan device offers for
+// 2^16 blocks): tsdf_weight = int16 tsdf (truncation units * 32767) | uint16 weight << 16, and
+// colors = r | g << 8 | b << 16.
 #define VOLUME_EMPTY_KEY 0xFFFFFFFFu
 #define VOLUME_NO_BLOCK 0xFFFFFFFFu
 #define VOLUME_MAX_PROBES 64
@@ -134,7 +136,8 @@ struct VolumeAllocateParams {
   uint frame_stamp;   // > 0, new every frame
 };
 
-// volume_integrate: one workgroup per visible block; each voxel is projected into the depth
+// volume_integrate: one workgroup per visible block (a 2-D grid of groups, entry = x + width * y,
+// so more blocks than maxComputeWorkGroupCount[0] can be visible); each voxel is projected into the depth
 // image (camera pose T_camera_world), sdf = depth - z, skipped below -truncation, then
 // tsdf = min(1, sdf / truncation) enters a running average with the weight capped at max_weight.
 struct VolumeIntegrateParams {

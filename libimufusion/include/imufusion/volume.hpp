@@ -26,7 +26,7 @@ struct VolumeConfig {
   float voxel_size = 0.01f;        // metres
   float truncation_voxels = 4.0f;  // truncation band, in voxels (default ~4)
   int max_weight = 128;            // running-average weight cap (observations)
-  std::uint32_t block_capacity = 1u << 16;  // blocks in the pool (2 MiB of voxels per 512)
+  std::uint32_t block_capacity = 1u << 16;  // blocks in the pool: 4 KiB each (8 bytes per voxel)
   std::uint32_t hash_slots = 1u << 18;      // hash-table slots (a power of two, > capacity)
 
   float truncation() const { return truncation_voxels * voxel_size; }  // metres

@@ -1,5 +1,6 @@
 #include "gpu/volume.hpp"
 
+#include <algorithm>
 #include <cstring>
 #include <string>
 #include <utility>
@@ -29,7 +30,7 @@ void set_intrinsics(Params& p, const Intrinsics& k) {
   p.cy = static_cast<float>(k.cy);
 }
 
-Status check_config(const VolumeConfig& c) {
+Status check_config(const VolumeConfig& c, const VkPhysicalDeviceLimits& limits) {
   auto bad = [](const std::string& what) { return make_error(ErrorCode::kInvalidArgument, what); };
   if (!(c.voxel_size > 0.0005f && c.voxel_size < 1.0f))
     return bad("voxel size must be in (0.5 mm, 1 m), got " + std::to_string(c.voxel_size));
@@ -38,6 +39,14 @@ Status check_config(const VolumeConfig& c) {
   if (c.block_capacity == 0) return bad("block capacity must be positive");
   if (c.hash_slots < 2 || (c.hash_slots & (c.hash_slots - 1)) != 0 || c.hash_slots < c.block_capacity)
     return bad("hash_slots must be a power of two >= block_capacity, got " + std::to_string(c.hash_slots));
+  // Each voxel array (4 bytes per voxel) is one storage-buffer binding.
+  const std::uint64_t pool_bytes = std::uint64_t{c.block_capacity} * kBlockVoxels * 4;
+  if (pool_bytes > limits.maxStorageBufferRange || std::uint64_t{c.hash_slots} * 4 > limits.maxStorageBufferRange) {
+    return bad("block capacity " + std::to_string(c.block_capacity) + " needs voxel arrays of " +
+               std::to_string(pool_bytes >> 20) + " MiB, beyond this device's storage-buffer range of " +
+               std::to_string(limits.maxStorageBufferRange >> 20) + " MiB (at most " +
+               std::to_string(limits.maxStorageBufferRange / (kBlockVoxels * 4)) + " blocks)");
+  }
   return {};
 }
 
@@ -45,7 +54,7 @@ Status check_config(const VolumeConfig& c) {
 
 Result<TsdfVolume> TsdfVolume::create(std::shared_ptr<Context> context, const VolumeConfig& config,
                                       int workgroup_x, int workgroup_y) {
-  IMUFUSION_RETURN_IF_ERROR(check_config(config));
+  IMUFUSION_RETURN_IF_ERROR(check_config(config, context->limits()));
   TsdfVolume v;
   v.context_ = context;
   v.config_ = config;
@@ -57,8 +66,8 @@ Result<TsdfVolume> TsdfVolume::create(std::shared_ptr<Context> context, const Vo
     return {};
   };
   IMUFUSION_RETURN_IF_ERROR(make({"volume_allocate", 6, sizeof(layout::VolumeAllocateParams), wx, wy}, v.allocate_));
-  IMUFUSION_RETURN_IF_ERROR(make({"volume_integrate", 6, sizeof(layout::VolumeIntegrateParams), 8, 8}, v.integrate_));
-  IMUFUSION_RETURN_IF_ERROR(make({"volume_raycast", 7, sizeof(layout::VolumeRaycastParams), wx, wy}, v.raycast_));
+  IMUFUSION_RETURN_IF_ERROR(make({"volume_integrate", 7, sizeof(layout::VolumeIntegrateParams), 8, 8}, v.integrate_));
+  IMUFUSION_RETURN_IF_ERROR(make({"volume_raycast", 8, sizeof(layout::VolumeRaycastParams), wx, wy}, v.raycast_));
   auto alloc = [&](std::size_t bytes, Buffer& out) -> Status {
     auto buffer = Buffer::create(context, bytes);
     if (!buffer) return buffer.error();
@@ -71,7 +80,8 @@ Result<TsdfVolume> TsdfVolume::create(std::shared_ptr<Context> context, const Vo
   IMUFUSION_RETURN_IF_ERROR(alloc(slots * 4, v.stamps_));
   IMUFUSION_RETURN_IF_ERROR(alloc(std::size_t{config.block_capacity} * 4, v.visible_));
   IMUFUSION_RETURN_IF_ERROR(alloc(VOLUME_COUNTERS * 4, v.counters_));
-  IMUFUSION_RETURN_IF_ERROR(alloc(std::size_t{config.block_capacity} * kBlockVoxels * 8, v.voxels_));
+  IMUFUSION_RETURN_IF_ERROR(alloc(std::size_t{config.block_capacity} * kBlockVoxels * 4, v.tsdf_weight_));
+  IMUFUSION_RETURN_IF_ERROR(alloc(std::size_t{config.block_capacity} * kBlockVoxels * 4, v.voxel_colors_));
   IMUFUSION_RETURN_IF_ERROR(alloc(4, v.no_color_));
   auto seq = CommandSequence::create(context, 2);
   if (!seq) return seq.error();
@@ -86,7 +96,8 @@ Status TsdfVolume::reset() {
   IMUFUSION_RETURN_IF_ERROR(values_.clear());
   IMUFUSION_RETURN_IF_ERROR(stamps_.clear());
   IMUFUSION_RETURN_IF_ERROR(counters_.clear());
-  IMUFUSION_RETURN_IF_ERROR(voxels_.clear());
+  IMUFUSION_RETURN_IF_ERROR(tsdf_weight_.clear());
+  IMUFUSION_RETURN_IF_ERROR(voxel_colors_.clear());
   frame_stamp_ = 0;
   allocated_ = 0;
   return {};
@@ -146,9 +157,13 @@ Result<IntegrationStats> TsdfVolume::integrate(const Buffer& depth, const Buffer
   ip.visible_count = stats.visible_blocks;
   ip.has_color = color != nullptr ? 1u : 0u;
   IMUFUSION_RETURN_IF_ERROR(seq_.begin());
+  // One 8x8 workgroup per visible block, on a 2-D grid of groups (x at most 32768 wide).
+  const std::uint32_t groups_x = std::min<std::uint32_t>(stats.visible_blocks, 32768);
+  const std::uint32_t groups_y = (stats.visible_blocks + groups_x - 1) / groups_x;
   seq_.dispatch(integrate_,
-                {&depth, color != nullptr ? color : &no_color_, &keys_, &values_, &visible_, &voxels_},
-                ip, 8 * stats.visible_blocks, 8, "volume_integrate");
+                {&depth, color != nullptr ? color : &no_color_, &keys_, &values_, &visible_,
+                 &tsdf_weight_, &voxel_colors_},
+                ip, 8 * groups_x, 8 * groups_y, "volume_integrate");
   auto t2 = seq_.submit_and_wait();
   if (!t2) return t2.error();
   if (timings != nullptr) timings->insert(timings->end(), t2->begin(), t2->end());
@@ -170,7 +185,8 @@ Status TsdfVolume::raycast(const Intrinsics& k, const Eigen::Isometry3d& T_world
   rp.far_depth = far_depth;
   rp.hash_mask = config_.hash_slots - 1;
   IMUFUSION_RETURN_IF_ERROR(seq_.begin());
-  seq_.dispatch(raycast_, {&keys_, &values_, &voxels_, &vertices, &normals, &shaded, &colors}, rp,
+  seq_.dispatch(raycast_,
+                {&keys_, &values_, &tsdf_weight_, &voxel_colors_, &vertices, &normals, &shaded, &colors}, rp,
                 rp.width, rp.height, "volume_raycast");
   auto t = seq_.submit_and_wait();
   if (!t) return t.error();
@@ -183,8 +199,11 @@ Result<HostVolume> TsdfVolume::snapshot() const {
   if (!keys) return keys.error();
   auto values = values_.download_as<std::uint32_t>(config_.hash_slots);
   if (!values) return values.error();
-  auto voxels = voxels_.download_as<std::uint32_t>(std::size_t{allocated_} * kBlockVoxels * 2);
-  if (!voxels) return voxels.error();
+  const std::size_t voxel_count = std::size_t{allocated_} * kBlockVoxels;
+  auto tsdf_weight = tsdf_weight_.download_as<std::uint32_t>(std::max<std::size_t>(voxel_count, 1));
+  if (!tsdf_weight) return tsdf_weight.error();
+  auto colors = voxel_colors_.download_as<std::uint32_t>(std::max<std::size_t>(voxel_count, 1));
+  if (!colors) return colors.error();
   HostVolume host;
   host.voxel_size = config_.voxel_size;
   host.truncation = config_.truncation();
@@ -197,8 +216,8 @@ Result<HostVolume> TsdfVolume::snapshot() const {
                               static_cast<int>((key >> 11) & 0x7FFu) - 1024,
                               static_cast<int>(key >> 22) - 512);
     for (int v = 0; v < kBlockVoxels; ++v) {
-      const std::size_t index = 2 * (std::size_t{block} * kBlockVoxels + static_cast<std::size_t>(v));
-      const std::uint32_t word0 = (*voxels)[index], word1 = (*voxels)[index + 1];
+      const std::size_t index = std::size_t{block} * kBlockVoxels + static_cast<std::size_t>(v);
+      const std::uint32_t word0 = (*tsdf_weight)[index], word1 = (*colors)[index];
       Voxel& voxel = b.voxels[static_cast<std::size_t>(v)];
       voxel.tsdf = static_cast<float>(static_cast<std::int16_t>(word0 & 0xFFFFu)) / 32767.0f;
       voxel.weight = static_cast<float>(word0 >> 16);

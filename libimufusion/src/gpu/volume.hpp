@@ -45,7 +45,7 @@ class TsdfVolume {
   std::shared_ptr<Context> context_;
   VolumeConfig config_;
   ComputePipeline allocate_, integrate_, raycast_;
-  Buffer keys_, values_, stamps_, visible_, counters_, voxels_, no_color_;
+  Buffer keys_, values_, stamps_, visible_, counters_, tsdf_weight_, voxel_colors_, no_color_;
   CommandSequence seq_;
   std::uint32_t frame_stamp_ = 0;
   std::uint32_t allocated_ = 0;
