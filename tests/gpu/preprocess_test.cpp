@@ -96,6 +96,25 @@ void expect_vectors_near(const Vec4Image& gpu, const Vec4Image& ref, double tol,
   EXPECT_EQ(value_mismatch, 0) << what;
 }
 
+// Runs the whole preprocessing chain on the GPU and downloads its results (and timings).
+Result<PreprocessedFrame> run_on_gpu(const std::shared_ptr<gpu::Context>& context,
+                                     const PreprocessConfig& config, const Intrinsics& k,
+                                     const DepthImage& raw) {
+  auto kernels = gpu::Preprocessor::create(context, config, k);
+  if (!kernels) return kernels.error();
+  auto seq = gpu::CommandSequence::create(context, kernels->dispatch_count());
+  if (!seq) return seq.error();
+  IMUFUSION_RETURN_IF_ERROR(kernels->upload(raw));
+  IMUFUSION_RETURN_IF_ERROR(seq->begin());
+  kernels->record(*seq);
+  auto timings = seq->submit_and_wait();
+  if (!timings) return timings.error();
+  auto frame = kernels->download();
+  if (!frame) return frame.error();
+  frame->timings = std::move(*timings);
+  return frame;
+}
+
 class PreprocessGpuTest : public GpuTest,
                           public ::testing::WithParamInterface<std::pair<int, int>> {};
 
@@ -105,19 +124,10 @@ TEST_P(PreprocessGpuTest, EachKernelMatchesItsReference) {
   PreprocessConfig config;
   config.workgroup_x = wx;
   config.workgroup_y = wy;
-  auto kernels = gpu::Preprocessor::create(context_, config, k);
-  ASSERT_TRUE(kernels.ok()) << kernels.error().describe();
-  auto seq = gpu::CommandSequence::create(context_, kernels->dispatch_count());
-  ASSERT_TRUE(seq.ok()) << seq.error().describe();
   const DepthImage raw = test_depth(k, 7);
-  ASSERT_TRUE(kernels->upload(raw).ok());
-  ASSERT_TRUE(seq->begin().ok());
-  kernels->record(*seq);
-  auto timings = seq->submit_and_wait();
-  ASSERT_TRUE(timings.ok()) << timings.error().describe();
-  EXPECT_EQ(timings->size(), kernels->dispatch_count());
-  auto gpu = kernels->download();
+  auto gpu = run_on_gpu(context_, config, k, raw);
   ASSERT_TRUE(gpu.ok()) << gpu.error().describe();
+  EXPECT_EQ(gpu->timings.size(), 2u + 2u + 6u);
 
   const FloatImage metres = reference::depth_to_metres(raw, config.min_depth, config.max_depth);
   expect_depth_near(gpu->raw_depth, metres, 1e-6, "depth_to_metres");
@@ -146,17 +156,9 @@ INSTANTIATE_TEST_SUITE_P(Workgroups, PreprocessGpuTest,
 TEST_F(GpuTest, WholeChainMatchesReferenceChain) {
   const Intrinsics k = test_intrinsics(161, 117);
   const PreprocessConfig config;
-  auto kernels = gpu::Preprocessor::create(context_, config, k);
-  ASSERT_TRUE(kernels.ok()) << kernels.error().describe();
-  auto seq = gpu::CommandSequence::create(context_, kernels->dispatch_count());
-  ASSERT_TRUE(seq.ok());
   const DepthImage raw = test_depth(k, 11);
-  ASSERT_TRUE(kernels->upload(raw).ok());
-  ASSERT_TRUE(seq->begin().ok());
-  kernels->record(*seq);
-  ASSERT_TRUE(seq->submit_and_wait().ok());
-  auto gpu = kernels->download();
-  ASSERT_TRUE(gpu.ok());
+  auto gpu = run_on_gpu(context_, config, k, raw);
+  ASSERT_TRUE(gpu.ok()) << gpu.error().describe();
   const PreprocessedFrame ref = reference::preprocess(raw, k, config);
   ASSERT_EQ(gpu->depth.size(), 3u);
   for (std::size_t l = 0; l < 3; ++l) {
@@ -169,17 +171,9 @@ TEST_F(GpuTest, WholeChainMatchesReferenceChain) {
 
 TEST_F(GpuTest, InvalidPixelsStayInvalidAndNormalsFaceTheCamera) {
   const Intrinsics k = test_intrinsics(97, 61);
-  auto kernels = gpu::Preprocessor::create(context_, PreprocessConfig{}, k);
-  ASSERT_TRUE(kernels.ok());
-  auto seq = gpu::CommandSequence::create(context_, kernels->dispatch_count());
-  ASSERT_TRUE(seq.ok());
   const DepthImage raw = test_depth(k, 3);
-  ASSERT_TRUE(kernels->upload(raw).ok());
-  ASSERT_TRUE(seq->begin().ok());
-  kernels->record(*seq);
-  ASSERT_TRUE(seq->submit_and_wait().ok());
-  auto gpu = kernels->download();
-  ASSERT_TRUE(gpu.ok());
+  auto gpu = run_on_gpu(context_, PreprocessConfig{}, k, raw);
+  ASSERT_TRUE(gpu.ok()) << gpu.error().describe();
   for (std::size_t i = 0; i < raw.data.size(); ++i) {
     if (gpu->raw_depth.data[i] == 0) {
       EXPECT_EQ(gpu->depth[0].data[i], 0.0f);
@@ -211,16 +205,8 @@ TEST_F(GpuTest, PyramidDoesNotAverageAcrossDiscontinuities) {
   PreprocessConfig config;
   config.levels = 2;
   config.bilateral_radius = 0;
-  auto kernels = gpu::Preprocessor::create(context_, config, k);
-  ASSERT_TRUE(kernels.ok()) << kernels.error().describe();
-  auto seq = gpu::CommandSequence::create(context_, kernels->dispatch_count());
-  ASSERT_TRUE(seq.ok());
-  ASSERT_TRUE(kernels->upload(raw).ok());
-  ASSERT_TRUE(seq->begin().ok());
-  kernels->record(*seq);
-  ASSERT_TRUE(seq->submit_and_wait().ok());
-  auto gpu = kernels->download();
-  ASSERT_TRUE(gpu.ok());
+  auto gpu = run_on_gpu(context_, config, k, raw);
+  ASSERT_TRUE(gpu.ok()) << gpu.error().describe();
   const FloatImage& half = gpu->depth[1];
   for (int v = 0; v < half.height; ++v) {
     EXPECT_FLOAT_EQ(half.at(1, v), 1.0f);
