@@ -158,7 +158,7 @@ Status write_ply(const std::filesystem::path& path, const Mesh& mesh) {
   }
   return io::write_file_atomically(path, [&](std::FILE* file) -> Status {
     if (std::fwrite(head.data(), 1, head.size(), file) != head.size() ||
-        std::fwrite(body.data(), 1, body.size(), file) != body.size()) {
+        (!body.empty() && std::fwrite(body.data(), 1, body.size(), file) != body.size())) {
       return make_error(ErrorCode::kIoError, "write_ply: cannot write " + path.string());
     }
     return {};
