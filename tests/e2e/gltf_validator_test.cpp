@@ -16,6 +16,8 @@
 
 #include "../unit/mesh_test_fixtures.hpp"
 #include "imufusion/mesh.hpp"
+#include "imufusion/synth.hpp"
+#include "reference/volume_reference.hpp"
 
 namespace imufusion {
 namespace {
@@ -108,6 +110,31 @@ TEST_F(GltfValidator, MarchingCubesSphereWithAndWithoutColoursHasNoErrors) {
     EXPECT_EQ(report["info"]["totalVertexCount"], mesh.vertices.size());
     EXPECT_EQ(report["info"]["totalTriangleCount"], mesh.triangles.size());
   }
+}
+
+TEST_F(GltfValidator, FusedRoomMeshHasNoErrors) {
+  // A mesh as a scan produces it: quantized TSDF (exact zeros give coincident vertices), open
+  // borders, colours from the frames.
+  const synth::Scene scene = synth::make_scene(synth::SceneKind::kRoom, 4);
+  const synth::CameraMotion motion(synth::SceneKind::kRoom, 4);
+  const Intrinsics intrinsics = synth::default_intrinsics(160, 120);
+  reference::CpuVolume volume(0.02, 0.08, 64);
+  for (int i = 0; i < 4; ++i) {
+    const Eigen::Isometry3d pose = motion.pose_at(0.3 * i);
+    const FloatImage depth = synth::raycast_depth(scene, pose, intrinsics);
+    const ColorImage color = synth::render_color(scene, pose, intrinsics);
+    volume.fuse(depth, &color, intrinsics, pose);
+  }
+  const auto mesh = extract_mesh(volume.to_host_volume());
+  ASSERT_TRUE(mesh.ok()) << mesh.error().describe();
+  ASSERT_GT(mesh->triangles.size(), 1000u);
+  const fs::path glb = dir_ / "room.glb";
+  ASSERT_TRUE(write_glb(glb, *mesh).ok());
+  nlohmann::json report;
+  const int rc = validate(glb, report);
+  ASSERT_FALSE(report.is_discarded()) << read_all(dir_ / "stderr.txt");
+  EXPECT_EQ(rc, 0);
+  EXPECT_EQ(report["issues"]["numErrors"], 0) << report["issues"].dump(2);
 }
 
 TEST_F(GltfValidator, ReportsErrorsInABrokenFile) {
