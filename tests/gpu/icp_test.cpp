@@ -13,6 +13,7 @@
 #include "gpu/icp_kernels.hpp"
 #include "gpu/preprocessor.hpp"
 #include "gpu_test_env.hpp"
+#include "imufusion/fusion.hpp"
 #include "imufusion/icp.hpp"
 #include "imufusion/synth.hpp"
 #include "imufusion_layouts.h"
@@ -170,6 +171,48 @@ TEST_P(IcpTrackerTest, RecoversAKnownMotion) {
 }
 
 INSTANTIATE_TEST_SUITE_P(References, IcpTrackerTest, ::testing::Values(true, false));
+
+// Frame-to-model: the reference maps are a raycast of a volume fused from frames around the
+// reference pose (ground-truth poses), as the scanner tracks against its model.
+TEST_F(GpuTest, FrameToModelRecoversAKnownMotion) {
+  const Intrinsics k = synth::default_intrinsics(320, 240);
+  const synth::Scene scene = synth::make_scene(synth::SceneKind::kRoom, 2);
+  const synth::CameraMotion path(synth::SceneKind::kRoom, 5);
+  VolumeConfig volume;
+  volume.block_capacity = 1u << 14;
+  volume.hash_slots = 1u << 15;
+  DeviceOptions device;
+  device.validation = true;
+  auto fusion = TsdfFusion::create(volume, PreprocessConfig{}, k, device);
+  ASSERT_TRUE(fusion.ok()) << fusion.error().describe();
+  for (int f = 0; f < 6; ++f) {
+    const Eigen::Isometry3d T = path.pose_at(1.8 + 0.08 * f);
+    ASSERT_TRUE(fusion->integrate(synth::render_depth(scene, T, k, {}, 40 + static_cast<std::uint64_t>(f)), nullptr, T).ok());
+  }
+  const Eigen::Isometry3d T_world_ref = path.pose_at(2.0);
+  auto model = fusion->raycast(T_world_ref);
+  ASSERT_TRUE(model.ok()) << model.error().describe();
+  EXPECT_EQ(fusion->validation_error_count(), 0u);
+
+  const Eigen::Isometry3d T_ref_cur = motion(1.5, {0.3, 1, -0.2}, {0.02, -0.015, 0.03});
+  const DepthImage current = synth::render_depth(scene, T_world_ref * T_ref_cur, k, {}, 99);
+  auto tracker = IcpTracker::create(IcpConfig{}, PreprocessConfig{}, k, device);
+  ASSERT_TRUE(tracker.ok());
+  ASSERT_TRUE(tracker->set_reference_maps(model->vertices, model->normals).ok());
+  auto result = tracker->track(current, Eigen::Isometry3d::Identity());
+  ASSERT_TRUE(result.ok()) << result.error().describe();
+  const Eigen::Isometry3d error = T_ref_cur.inverse() * result->T_ref_cur;
+  EXPECT_LT(error.translation().norm(), 0.002) << error.translation().transpose();
+  EXPECT_LT(rotation_deg(error), 0.1);
+  EXPECT_TRUE(result->reliable) << result->reason;
+  EXPECT_EQ(tracker->validation_error_count(), 0u);
+
+  Vec4Image wrong_size;
+  wrong_size.width = 10;
+  wrong_size.height = 10;
+  wrong_size.data.assign(100, Eigen::Vector4f::Zero());
+  EXPECT_FALSE(tracker->set_reference_maps(wrong_size, wrong_size).ok());
+}
 
 TEST_F(GpuTest, AFlatWallIsFlaggedUnreliable) {
   synth::Scene wall;

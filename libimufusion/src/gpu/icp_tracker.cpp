@@ -74,6 +74,13 @@ Status IcpTracker::set_reference(const DepthImage& depth) {
   return {};
 }
 
+Status IcpTracker::set_reference_maps(const Vec4Image& vertices, const Vec4Image& normals) {
+  IMUFUSION_RETURN_IF_ERROR(
+      impl_->frames[static_cast<std::size_t>(impl_->reference)].upload_maps(vertices, normals));
+  impl_->has_reference = true;
+  return {};
+}
+
 Result<IcpResult> IcpTracker::track(const DepthImage& depth, const Eigen::Isometry3d& T_ref_cur_init,
                                     std::vector<KernelTiming>* timings) {
   if (!impl_->has_reference)

@@ -3,6 +3,7 @@
 #include <string>
 #include <utility>
 
+#include "core/map_pyramid.hpp"
 #include "imufusion_layouts.h"
 
 namespace imufusion {
@@ -108,6 +109,25 @@ Status Preprocessor::upload(const DepthImage& depth) {
   // The shader reads two little-endian uint16 per 32-bit word; an odd pixel count leaves the last
   // half-word unused.
   return raw_.upload(depth.data.data(), depth.data.size() * sizeof(std::uint16_t));
+}
+
+Status Preprocessor::upload_maps(const Vec4Image& vertices, const Vec4Image& normals) {
+  const Intrinsics& k = levels_.front();
+  const auto pixels = static_cast<std::size_t>(k.width) * k.height;
+  if (vertices.width != k.width || vertices.height != k.height || normals.width != k.width ||
+      normals.height != k.height || vertices.data.size() != pixels || normals.data.size() != pixels) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "reference maps are " + std::to_string(vertices.width) + "x" +
+                          std::to_string(vertices.height) + ", the tracker was made for " +
+                          std::to_string(k.width) + "x" + std::to_string(k.height));
+  }
+  const auto pyramid = build_map_pyramid(vertices, normals, config_.levels, config_.max_jump_fraction);
+  for (std::size_t l = 0; l < pyramid.size(); ++l) {
+    const auto bytes = pyramid[l].vertices.data.size() * sizeof(Eigen::Vector4f);
+    IMUFUSION_RETURN_IF_ERROR(vertices_[l].upload(pyramid[l].vertices.data.data(), bytes));
+    IMUFUSION_RETURN_IF_ERROR(normals_[l].upload(pyramid[l].normals.data.data(), bytes));
+  }
+  return {};
 }
 
 std::uint32_t Preprocessor::dispatch_count() const {

@@ -20,6 +20,10 @@ class Preprocessor {
 
   /// Uploads `depth` into the raw buffer (sizes are checked).
   Status upload(const DepthImage& depth);
+  /// Uploads ready-made level-0 vertex and normal maps (e.g. a model raycast) instead of a depth
+  /// image, with the coarser levels built on the host (core/map_pyramid.hpp). The depth buffers
+  /// are left as they were.
+  Status upload_maps(const Vec4Image& vertices, const Vec4Image& normals);
   /// Records every preprocessing dispatch into `seq` (between begin and submit).
   void record(CommandSequence& seq) const;
   /// Number of dispatches record() adds.
