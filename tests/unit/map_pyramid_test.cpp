@@ -16,7 +16,7 @@ TEST(MapPyramid, AveragesBlocksWithoutCrossingDepthJumps) {
   for (int y = 0; y < 4; ++y) {
     for (int x = 0; x < 6; ++x) {
       const float z = x < 3 ? 1.0f : 3.0f;  // the jump lies inside the middle 2x2 blocks
-      v.data[static_cast<std::size_t>(y * 6 + x)] = Eigen::Vector4f(0.01f * x, 0.01f * y, z, 1);
+      v.data[static_cast<std::size_t>(y * 6 + x)] = Eigen::Vector4f(0.01f * static_cast<float>(x), 0.01f * static_cast<float>(y), z, 1.0f);
       n.data[static_cast<std::size_t>(y * 6 + x)] = Eigen::Vector4f(0, 0, -1, 1);
     }
   }

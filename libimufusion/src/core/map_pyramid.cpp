@@ -1,6 +1,7 @@
 #include "core/map_pyramid.hpp"
 
 #include <array>
+#include <cmath>
 
 namespace imufusion {
 namespace {
@@ -26,21 +27,21 @@ MapLevel downsample(const MapLevel& src, float max_jump_fraction) {
         if (p.w() > 0 && src.normals.data[i].w() > 0 && (nearest == 0 || p.z() < nearest)) nearest = p.z();
       }
       if (nearest <= 0) continue;
-      Eigen::Vector3f point = Eigen::Vector3f::Zero(), normal = Eigen::Vector3f::Zero();
-      int count = 0;
+      // Sums of (x, y, z, 1): w counts the entries.
+      Eigen::Vector4f point = Eigen::Vector4f::Zero(), normal = Eigen::Vector4f::Zero();
       for (std::size_t i : block) {
         const Eigen::Vector4f& p = src.vertices.data[i];
         const Eigen::Vector4f& n = src.normals.data[i];
         if (p.w() > 0 && n.w() > 0 && p.z() - nearest <= max_jump_fraction * nearest) {
-          point += p.head<3>();
-          normal += n.head<3>();
-          ++count;
+          point += p;
+          normal += n;
         }
       }
-      if (normal.norm() <= 0) continue;
+      const float length = std::sqrt(normal.x() * normal.x() + normal.y() * normal.y() + normal.z() * normal.z());
+      if (length <= 0) continue;
       const std::size_t out = static_cast<std::size_t>(v) * width + u;
-      dst.vertices.data[out] << point / static_cast<float>(count), 1.0f;
-      dst.normals.data[out] << normal.normalized(), 1.0f;
+      dst.vertices.data[out] = point / point.w();
+      dst.normals.data[out] = Eigen::Vector4f(normal.x() / length, normal.y() / length, normal.z() / length, 1.0f);
     }
   }
   return dst;
