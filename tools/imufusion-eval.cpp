@@ -14,10 +14,12 @@
 
 #include "imufusion/eval.hpp"
 #include "imufusion/trajectory.hpp"
+#include "cli_numbers.hpp"
 
 namespace {
 
 using imufusion::DeltaUnit;
+using imufusion::tools::parse_number;
 using imufusion::ErrorStats;
 using imufusion::RpeResult;
 using imufusion::Trajectory;
@@ -53,14 +55,6 @@ struct Arguments {
 int usage_error(const std::string& message) {
   std::cerr << "imufusion-eval: " << message << "\n" << kUsage;
   return kExitUsage;
-}
-
-std::optional<double> parse_number(const std::string& text) {
-  if (text.empty()) return std::nullopt;
-  char* end = nullptr;
-  const double value = std::strtod(text.c_str(), &end);
-  if (end != text.c_str() + text.size() || !std::isfinite(value)) return std::nullopt;
-  return value;
 }
 
 // Returns the exit status on a usage error or --help, nothing when the arguments are complete.

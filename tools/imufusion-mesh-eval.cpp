@@ -16,8 +16,12 @@
 #include "imufusion/sequence.hpp"
 #include "imufusion/synth.hpp"
 #include "imufusion/trajectory.hpp"
+#include "cli_numbers.hpp"
 
 namespace {
+
+using imufusion::tools::parse_integer;
+using imufusion::tools::parse_number;
 
 constexpr const char* kUsage =
     "usage: imufusion-mesh-eval MESH.ply|MESH.glb --scene room|wall|fast --seed N\n"
@@ -64,22 +68,6 @@ struct Arguments {
 int usage_error(const std::string& message) {
   std::cerr << "imufusion-mesh-eval: " << message << "\n" << kUsage;
   return kExitUsage;
-}
-
-std::optional<double> parse_number(const std::string& text) {
-  if (text.empty()) return std::nullopt;
-  char* end = nullptr;
-  const double value = std::strtod(text.c_str(), &end);
-  if (end != text.c_str() + text.size() || !std::isfinite(value)) return std::nullopt;
-  return value;
-}
-
-std::optional<long long> parse_integer(const std::string& text) {
-  if (text.empty()) return std::nullopt;
-  char* end = nullptr;
-  const long long value = std::strtoll(text.c_str(), &end, 10);
-  if (end != text.c_str() + text.size()) return std::nullopt;
-  return value;
 }
 
 // Returns the exit status on a usage error or --help, nothing when the arguments are complete.
