@@ -1,0 +1,72 @@
+#pragma once
+// The tracking state machine of the scanner (Figure 2 of Niessner, Dai and Fisher, EG 2014, made
+// explicit): it decides, from the reliability of each frame's ICP, which pose a frame takes and
+// whether the frame is fused into the volume. Pure logic, no GPU.
+//
+//   tracking   --ICP reliable-->                      tracking     pose: ICP,   fused
+//   tracking   --ICP unreliable-->                    lost         pose: dead reckoning, not fused
+//   lost       --ICP unreliable-->                    lost         pose: dead reckoning, not fused
+//   lost       --ICP reliable and converged-->        recovering   pose: ICP,   not fused
+//   recovering --reliable and converged, k-th time--> tracking once k == recovery_frames, fused
+//   recovering --anything else-->                     lost         pose: dead reckoning, not fused
+//
+// The first frame of a scan (or after reset) defines the world: status tracking, pose source
+// `initial`, fused. Dead reckoning means M_{t-1} * dIMU: the previous pose moved by the IMU's
+// estimate of the motion (identity rotation when there is no IMU data).
+
+#include <optional>
+#include <string_view>
+
+namespace imufusion {
+
+enum class TrackingStatus { kTracking, kLost, kRecovering };
+enum class PoseSource { kInitial, kIcp, kDeadReckoning, kKnown };
+
+const char* to_string(TrackingStatus status);  // "tracking", "lost", "recovering"
+const char* to_string(PoseSource source);      // "initial", "icp", "dead_reckoning", "known"
+std::optional<TrackingStatus> parse_tracking_status(std::string_view name);
+std::optional<PoseSource> parse_pose_source(std::string_view name);
+
+struct TrackingConfig {
+  /// Consecutive reliable, converged frames after a loss before fusion resumes (hysteresis: one
+  /// lucky alignment against a half-seen model must not smear a wrong pose into the volume).
+  int recovery_frames = 3;
+  /// Cap on Gauss-Newton steps for a frame while lost or recovering (the seed is then a
+  /// dead-reckoned pose, further off than after a tracked frame).
+  int recovery_icp_iterations = 10;
+};
+
+struct TrackingDecision {
+  TrackingStatus status = TrackingStatus::kTracking;
+  PoseSource source = PoseSource::kInitial;
+  bool fuse = false;
+  int good_frames = 0;  // consecutive reliable frames counted towards recovery
+  bool recovered = false;  // this frame ended a loss (recovering -> tracking)
+};
+
+class TrackingStateMachine {
+ public:
+  explicit TrackingStateMachine(TrackingConfig config = {}) : config_(config) {}
+
+  /// The first frame, or the first after reset(): defines the world frame.
+  TrackingDecision start();
+  /// A later frame, given its ICP verdict. `converged` is the ICP's own convergence flag; it
+  /// matters only while lost or recovering, where alignment must settle before it counts.
+  TrackingDecision step(bool icp_reliable, bool converged);
+  /// Back to before the first frame.
+  void reset();
+
+  bool started() const { return started_; }
+  TrackingStatus status() const { return status_; }
+  /// Whether the next frame is tracked from a dead-reckoned seed (lost or recovering).
+  bool recovering_or_lost() const { return started_ && status_ != TrackingStatus::kTracking; }
+  const TrackingConfig& config() const { return config_; }
+
+ private:
+  TrackingConfig config_;
+  bool started_ = false;
+  TrackingStatus status_ = TrackingStatus::kTracking;
+  int good_frames_ = 0;
+};
+
+}  // namespace imufusion

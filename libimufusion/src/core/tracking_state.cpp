@@ -1,0 +1,81 @@
+#include <algorithm>
+#include <string_view>
+
+#include "imufusion/tracking.hpp"
+
+namespace imufusion {
+
+const char* to_string(TrackingStatus status) {
+  switch (status) {
+    case TrackingStatus::kTracking: return "tracking";
+    case TrackingStatus::kLost: return "lost";
+    case TrackingStatus::kRecovering: return "recovering";
+  }
+  return "unknown";
+}
+
+const char* to_string(PoseSource source) {
+  switch (source) {
+    case PoseSource::kInitial: return "initial";
+    case PoseSource::kIcp: return "icp";
+    case PoseSource::kDeadReckoning: return "dead_reckoning";
+    case PoseSource::kKnown: return "known";
+  }
+  return "unknown";
+}
+
+std::optional<TrackingStatus> parse_tracking_status(std::string_view name) {
+  for (auto s : {TrackingStatus::kTracking, TrackingStatus::kLost, TrackingStatus::kRecovering})
+    if (name == to_string(s)) return s;
+  return std::nullopt;
+}
+
+std::optional<PoseSource> parse_pose_source(std::string_view name) {
+  for (auto s : {PoseSource::kInitial, PoseSource::kIcp, PoseSource::kDeadReckoning, PoseSource::kKnown})
+    if (name == to_string(s)) return s;
+  return std::nullopt;
+}
+
+TrackingDecision TrackingStateMachine::start() {
+  started_ = true;
+  status_ = TrackingStatus::kTracking;
+  good_frames_ = 0;
+  return {TrackingStatus::kTracking, PoseSource::kInitial, true, 0, false};
+}
+
+TrackingDecision TrackingStateMachine::step(bool icp_reliable, bool converged) {
+  if (!started_) return start();
+  TrackingDecision d;
+  if (status_ == TrackingStatus::kTracking) {
+    if (icp_reliable) {
+      d = {TrackingStatus::kTracking, PoseSource::kIcp, true, 0, false};
+    } else {
+      status_ = TrackingStatus::kLost;
+      d = {TrackingStatus::kLost, PoseSource::kDeadReckoning, false, 0, false};
+    }
+    return d;
+  }
+  // Lost or recovering: only a reliable alignment that has settled counts towards recovery.
+  if (!(icp_reliable && converged)) {
+    status_ = TrackingStatus::kLost;
+    good_frames_ = 0;
+    return {TrackingStatus::kLost, PoseSource::kDeadReckoning, false, 0, false};
+  }
+  good_frames_ = std::min(good_frames_ + 1, std::max(config_.recovery_frames, 1));
+  if (good_frames_ >= config_.recovery_frames) {
+    status_ = TrackingStatus::kTracking;
+    const int counted = good_frames_;
+    good_frames_ = 0;
+    return {TrackingStatus::kTracking, PoseSource::kIcp, true, counted, true};
+  }
+  status_ = TrackingStatus::kRecovering;
+  return {TrackingStatus::kRecovering, PoseSource::kIcp, false, good_frames_, false};
+}
+
+void TrackingStateMachine::reset() {
+  started_ = false;
+  status_ = TrackingStatus::kTracking;
+  good_frames_ = 0;
+}
+
+}  // namespace imufusion

@@ -1,0 +1,113 @@
+#include <gtest/gtest.h>
+
+#include "imufusion/tracking.hpp"
+
+using namespace imufusion;
+
+namespace {
+
+void expect(const TrackingDecision& d, TrackingStatus status, PoseSource source, bool fuse) {
+  EXPECT_EQ(d.status, status) << to_string(d.status);
+  EXPECT_EQ(d.source, source) << to_string(d.source);
+  EXPECT_EQ(d.fuse, fuse);
+}
+
+TrackingStateMachine lost_machine(int recovery_frames) {
+  TrackingStateMachine m({recovery_frames, 10});
+  m.start();
+  m.step(false, false);
+  return m;
+}
+
+}  // namespace
+
+TEST(TrackingStateMachine, FirstFrameDefinesTheWorldAndIsFused) {
+  TrackingStateMachine m;
+  EXPECT_FALSE(m.started());
+  expect(m.start(), TrackingStatus::kTracking, PoseSource::kInitial, true);
+  EXPECT_TRUE(m.started());
+  EXPECT_FALSE(m.recovering_or_lost());
+}
+
+TEST(TrackingStateMachine, StepBeforeStartActsAsStart) {
+  TrackingStateMachine m;
+  expect(m.step(false, false), TrackingStatus::kTracking, PoseSource::kInitial, true);
+}
+
+TEST(TrackingStateMachine, TrackingStaysTrackingOnReliableIcp) {
+  TrackingStateMachine m;
+  m.start();
+  // Convergence does not matter while tracking: a one-iteration IMU-seeded ICP rarely "converges".
+  expect(m.step(true, false), TrackingStatus::kTracking, PoseSource::kIcp, true);
+  expect(m.step(true, true), TrackingStatus::kTracking, PoseSource::kIcp, true);
+}
+
+TEST(TrackingStateMachine, UnreliableIcpLosesTrackingAndStopsFusion) {
+  TrackingStateMachine m;
+  m.start();
+  expect(m.step(false, true), TrackingStatus::kLost, PoseSource::kDeadReckoning, false);
+  EXPECT_TRUE(m.recovering_or_lost());
+  expect(m.step(false, false), TrackingStatus::kLost, PoseSource::kDeadReckoning, false);
+}
+
+TEST(TrackingStateMachine, RecoveryNeedsConsecutiveReliableConvergedFrames) {
+  auto m = lost_machine(3);
+  auto d1 = m.step(true, true);
+  expect(d1, TrackingStatus::kRecovering, PoseSource::kIcp, false);
+  EXPECT_EQ(d1.good_frames, 1);
+  auto d2 = m.step(true, true);
+  expect(d2, TrackingStatus::kRecovering, PoseSource::kIcp, false);
+  EXPECT_EQ(d2.good_frames, 2);
+  EXPECT_FALSE(d2.recovered);
+  auto d3 = m.step(true, true);
+  expect(d3, TrackingStatus::kTracking, PoseSource::kIcp, true);
+  EXPECT_TRUE(d3.recovered);
+  EXPECT_FALSE(m.recovering_or_lost());
+  EXPECT_FALSE(m.step(true, true).recovered);
+}
+
+TEST(TrackingStateMachine, ReliableButUnconvergedDoesNotCountWhileLost) {
+  auto m = lost_machine(2);
+  expect(m.step(true, false), TrackingStatus::kLost, PoseSource::kDeadReckoning, false);
+  expect(m.step(true, true), TrackingStatus::kRecovering, PoseSource::kIcp, false);
+}
+
+TEST(TrackingStateMachine, SetbackDuringRecoveryStartsTheCountAgain) {
+  auto m = lost_machine(3);
+  m.step(true, true);
+  m.step(true, true);
+  expect(m.step(false, true), TrackingStatus::kLost, PoseSource::kDeadReckoning, false);
+  EXPECT_EQ(m.step(true, true).good_frames, 1);
+  EXPECT_EQ(m.step(true, true).good_frames, 2);
+  expect(m.step(true, true), TrackingStatus::kTracking, PoseSource::kIcp, true);
+}
+
+TEST(TrackingStateMachine, RecoveringUnconvergedFallsBackToLost) {
+  auto m = lost_machine(3);
+  m.step(true, true);
+  expect(m.step(true, false), TrackingStatus::kLost, PoseSource::kDeadReckoning, false);
+}
+
+TEST(TrackingStateMachine, OneRecoveryFrameResumesFusionAtOnce) {
+  auto m = lost_machine(1);
+  auto d = m.step(true, true);
+  expect(d, TrackingStatus::kTracking, PoseSource::kIcp, true);
+  EXPECT_TRUE(d.recovered);
+}
+
+TEST(TrackingStateMachine, ResetForgetsEverything) {
+  auto m = lost_machine(3);
+  m.step(true, true);
+  m.reset();
+  EXPECT_FALSE(m.started());
+  expect(m.step(true, true), TrackingStatus::kTracking, PoseSource::kInitial, true);
+}
+
+TEST(TrackingStateMachine, NamesRoundTrip) {
+  for (auto s : {TrackingStatus::kTracking, TrackingStatus::kLost, TrackingStatus::kRecovering})
+    EXPECT_EQ(parse_tracking_status(to_string(s)), s);
+  for (auto s : {PoseSource::kInitial, PoseSource::kIcp, PoseSource::kDeadReckoning, PoseSource::kKnown})
+    EXPECT_EQ(parse_pose_source(to_string(s)), s);
+  EXPECT_FALSE(parse_tracking_status("tracked").has_value());
+  EXPECT_FALSE(parse_pose_source("imu").has_value());
+}
