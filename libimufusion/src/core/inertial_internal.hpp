@@ -1,0 +1,177 @@
+#pragma once
+// The parts of InertialNavigator, each testable alone: the sample buffer and its integration,
+// the gyro bias estimator, the hand-eye rotation calibration and the velocity / gravity filter.
+// Units: s, rad, rad/s, m, m/s, m/s^2. R_a_b maps b-coordinates into a.
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cmath>
+#include <deque>
+#include <limits>
+#include <span>
+#include <vector>
+
+#include "imufusion/inertial.hpp"
+#include "imufusion/result.hpp"
+#include "imufusion/types.hpp"
+
+namespace imufusion::inertial {
+
+/// Exp of a rotation vector (rad).
+Eigen::Matrix3d exp_so3(const Eigen::Vector3d& phi);
+/// Log of a rotation: the rotation vector (rad), angle in [0, pi].
+Eigen::Vector3d log_so3(const Eigen::Matrix3d& R);
+/// Right Jacobian of SO(3): Exp(phi + d) ~ Exp(phi) Exp(Jr(phi) d).
+Eigen::Matrix3d right_jacobian_so3(const Eigen::Vector3d& phi);
+
+/// IMU motion over [ta, tb] integrated from the samples (see inertial.hpp for the rate rule).
+struct ImuIntegration {
+  Eigen::Matrix3d R_a_b = Eigen::Matrix3d::Identity();  // IMU at tb into IMU at ta
+  /// d Log(R_a_b) / d bias, right perturbation: R_a_b(bias + d) ~ R_a_b Exp(J d). rad per rad/s;
+  /// about -(tb - ta) I for small rotations.
+  Eigen::Matrix3d J_bias = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d bias_used = Eigen::Vector3d::Zero();  // rad/s, removed from every rate
+  /// World-frame integrals of the specific force rotated by R_world_imu(t) (starting from the
+  /// R_world_imu_a given): delta_v = int f_w dt (m/s), delta_p = double integral (m). Gravity
+  /// is not included.
+  Eigen::Vector3d delta_v = Eigen::Vector3d::Zero();
+  Eigen::Vector3d delta_p = Eigen::Vector3d::Zero();
+  bool complete = false;        // every part of [ta, tb] had a rate (interpolated or held)
+  double covered_fraction = 0;  // interpolated part of [ta, tb]
+  int samples_used = 0;
+};
+
+/// Time-ordered IMU samples with the interpolation / hold rule of inertial.hpp.
+class SampleBuffer {
+ public:
+  SampleBuffer(double max_extrapolation, double max_sample_gap, double history);
+
+  /// All-or-nothing append (see InertialNavigator::add_samples).
+  Status append(std::span<const ImuSample> samples);
+  double latest_time() const;
+  bool empty() const { return samples_.empty(); }
+
+  ImuIntegration integrate(double ta, double tb, const Eigen::Vector3d& bias,
+                           const Eigen::Matrix3d& R_world_imu_a) const;
+
+ private:
+  enum class RateKind { kInterpolated, kHeld, kNone };
+  struct Rate {
+    RateKind kind = RateKind::kNone;
+    Eigen::Vector3d gyro = Eigen::Vector3d::Zero();
+    Eigen::Vector3d accel = Eigen::Vector3d::Zero();
+    std::size_t first = 0, last = 0;  // sample indices used
+  };
+  Rate rate_at(double t) const;
+  std::vector<double> breakpoints(double ta, double tb) const;
+
+  double max_extrapolation_, max_sample_gap_, history_;
+  std::deque<ImuSample> samples_;
+  int last_merged_ = 1;  // readings averaged into the newest sample
+};
+
+/// Recursive (Kalman) estimate of the gyro bias from pairs of a reliable ICP rotation and the
+/// integrated gyro.
+class GyroBiasEstimator {
+ public:
+  GyroBiasEstimator(const Eigen::Vector3d& initial_bias, double prior_sigma, double random_walk,
+                    double noise_density, double icp_sigma);
+
+  /// R_imu_icp: the tracked rotation of the pair in the IMU frame (IMU-b into IMU-a).
+  /// mounting_sigma: rad, uncertainty of the camera-IMU rotation used to map the ICP rotation
+  /// into the IMU frame; its error grows with the pair's rotation angle, so rotation-rich pairs
+  /// weigh less while the mounting is uncertain. Returns false when the pair was gated out.
+  bool update(double t, const ImuIntegration& integration, const Eigen::Matrix3d& R_imu_icp,
+              double dt, double mounting_sigma);
+  /// Replaces the state (e.g. by a hand-eye solve's joint estimate).
+  void reset_to(const Eigen::Vector3d& bias, const Eigen::Matrix3d& covariance);
+
+  const Eigen::Vector3d& bias() const { return bias_; }
+  const Eigen::Matrix3d& covariance() const { return P_; }
+  int updates() const { return updates_; }
+  int rejected() const { return rejected_; }
+
+ private:
+  Eigen::Vector3d bias_;
+  Eigen::Matrix3d P_;
+  double random_walk_, noise_density_, icp_sigma_;
+  double last_time_ = 0;
+  bool has_time_ = false;
+  int updates_ = 0, rejected_ = 0;
+};
+
+/// Rotation hand-eye calibration R_c R_ci = R_ci R_i from pairs of rotations, jointly with the
+/// gyro bias: rotation vectors a_c = R_ci a_i (Kabsch / SVD, rotation vectors carry their angle
+/// as weight) alternated with the bias by linear least squares.
+class HandEyeCalibrator {
+ public:
+  explicit HandEyeCalibrator(int max_pairs);
+
+  /// R_camera_a_b: tracked camera rotation (camera-b into camera-a); the integration's rotation
+  /// is in the IMU frame with its bias Jacobian.
+  void add(const Eigen::Matrix3d& R_camera_a_b, const ImuIntegration& integration);
+
+  struct Solution {
+    Eigen::Matrix3d R_camera_imu = Eigen::Matrix3d::Identity();
+    Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();  // rad/s, IMU frame
+    Eigen::Matrix3d bias_covariance = Eigen::Matrix3d::Identity();
+    double sigma = 0;  // rad, 1 sigma about the least constrained axis (inf: one axis only)
+    int pairs = 0;
+  };
+  /// Solves from the stored pairs, starting the bias at `bias_guess`.
+  Solution solve(const Eigen::Vector3d& bias_guess) const;
+  int pairs() const { return static_cast<int>(pairs_.size()); }
+
+ private:
+  struct Pair {
+    Eigen::Vector3d a_camera, a_imu;  // rotation vectors, rad
+    Eigen::Matrix3d J_bias;
+    Eigen::Vector3d bias_used;
+  };
+  std::deque<Pair> pairs_;
+  int max_pairs_;
+};
+
+/// Velocity of the IMU point in the world frame, filtered from tracked positions with either a
+/// constant-velocity process or the accelerometer; and gravity in the world frame.
+class VelocityFilter {
+ public:
+  VelocityFilter(const InertialConfig& config);
+
+  struct Propagation {
+    Eigen::Vector3d velocity_b = Eigen::Vector3d::Zero();
+    Eigen::Vector3d delta_p = Eigen::Vector3d::Zero();  // IMU point displacement, world, m
+    bool used_accelerometer = false;
+  };
+  /// The motion over dt from the current velocity; the integration (specific force rotated into
+  /// the world) is used when the model is the accelerometer, gravity is ready and `integration`
+  /// is complete.
+  Propagation propagate(double dt, const ImuIntegration* integration) const;
+
+  /// Advances over a frame pair. p_a, p_b: tracked IMU-point positions (world, m); used as a
+  /// measurement when `reliable`.
+  void step(double dt, const Eigen::Vector3d& p_a, const Eigen::Vector3d& p_b, bool reliable,
+            const ImuIntegration* integration);
+
+  bool has_velocity() const { return initialized_ && std::sqrt(P_) <= max_sigma_; }
+  const Eigen::Vector3d& velocity() const { return v_; }
+  double sigma() const { return initialized_ ? std::sqrt(P_) : std::numeric_limits<double>::infinity(); }
+  bool gravity_ready() const { return gravity_time_ >= gravity_min_time_; }
+  Eigen::Vector3d gravity() const;
+  /// Forgets the velocity (a break in the frame chain); keeps gravity.
+  void reset_velocity();
+  /// Forgets velocity and gravity.
+  void reset();
+
+ private:
+  TranslationModel model_;
+  double position_sigma_, cv_noise_, accel_noise_, max_sigma_;
+  double gravity_min_time_, gravity_tau_;
+  Eigen::Vector3d v_ = Eigen::Vector3d::Zero();
+  double P_ = 0;  // velocity variance per axis, (m/s)^2
+  bool initialized_ = false;
+  Eigen::Vector3d gravity_sum_ = Eigen::Vector3d::Zero();  // forgetting sum of g * dt, m/s
+  double gravity_time_ = 0;                                 // forgetting sum of dt, s
+};
+
+}  // namespace imufusion::inertial
