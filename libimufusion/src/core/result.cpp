@@ -9,7 +9,7 @@ const char* to_string(ErrorCode code) {
     case ErrorCode::kIoError: return "i/o error";
     case ErrorCode::kParseError: return "parse error";
     case ErrorCode::kUnsupported: return "unsupported";
-    case ErrorCode::kNoDevice: return "no Vulkan device";
+    case ErrorCode::kNoDevice: return "no device";
     case ErrorCode::kOutOfDeviceMemory: return "out of device memory";
     case ErrorCode::kDeviceLost: return "device lost";
     case ErrorCode::kVulkanError: return "Vulkan error";

@@ -10,6 +10,8 @@ namespace {
 
 bool is_separator(char c) { return c == ' ' || c == '\t' || c == ',' || c == '\v' || c == '\f'; }
 
+}  // namespace
+
 std::vector<std::string> split_fields(std::string_view text) {
   std::vector<std::string> fields;
   std::size_t i = 0;
@@ -21,8 +23,6 @@ std::vector<std::string> split_fields(std::string_view text) {
   }
   return fields;
 }
-
-}  // namespace
 
 Result<std::vector<TextLine>> read_text_table(const std::filesystem::path& path) {
   auto bytes = read_file_bytes(path);

@@ -19,6 +19,9 @@ struct TextLine {
   std::vector<std::string> fields;  // whitespace/comma separated
 };
 
+/// The fields of one line, split at spaces, tabs and commas.
+std::vector<std::string> split_fields(std::string_view text);
+
 /// Reads `path` and splits every non-comment, non-blank line into fields.
 Result<std::vector<TextLine>> read_text_table(const std::filesystem::path& path);
 

@@ -1,0 +1,158 @@
+#include "imufusion/clock_offset.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace imufusion {
+
+double HostClockMapper::observe(double host_receive_time, double sensor_time) {
+  const double observed = host_receive_time - sensor_time;
+  if (!offset_) {
+    offset_ = observed;
+  } else {
+    // The envelope may rise only as fast as the clocks can drift apart; it drops at once to any
+    // smaller difference (a message that travelled faster).
+    const double elapsed = std::max(0.0, sensor_time - last_sensor_time_);
+    offset_ = std::min(*offset_ + max_drift_ * elapsed, observed);
+  }
+  last_sensor_time_ = std::max(last_sensor_time_, sensor_time);
+  return sensor_time + *offset_;
+}
+
+std::optional<double> HostClockMapper::offset() const { return offset_; }
+
+ClockOffsetEstimator::ClockOffsetEstimator(const ClockOffsetOptions& options)
+    : options_(options) {}
+
+void ClockOffsetEstimator::add_imu(const ImuSample& sample, double host_receive_time) {
+  if (!gyro_.empty() && !(sample.timestamp > gyro_.back().t)) return;
+  arrival_.observe(host_receive_time, sample.timestamp);
+  has_arrival_ = true;
+  add_imu(sample);
+}
+
+void ClockOffsetEstimator::add_imu(const ImuSample& sample) {
+  if (!std::isfinite(sample.timestamp) || !sample.gyro.allFinite()) return;
+  if (gyro_.empty()) {
+    gyro_.push_back({sample.timestamp, sample.gyro, Eigen::Vector3d::Zero()});
+    return;
+  }
+  const Gyro& last = gyro_.back();
+  if (!(sample.timestamp > last.t)) return;
+  const double h = sample.timestamp - last.t;
+  gyro_.push_back({sample.timestamp, sample.gyro, last.integral + 0.5 * h * (last.rate + sample.gyro)});
+  forget_old();
+}
+
+void ClockOffsetEstimator::add_camera_rate(double previous_frame_time, double frame_time,
+                                           double rate) {
+  if (!std::isfinite(previous_frame_time) || !std::isfinite(frame_time) || !std::isfinite(rate) ||
+      !(frame_time > previous_frame_time)) {
+    return;
+  }
+  if (!intervals_.empty() && !(frame_time > intervals_.back().end)) return;
+  intervals_.push_back({previous_frame_time, frame_time, rate});
+  forget_old();
+}
+
+void ClockOffsetEstimator::forget_old() {
+  if (!intervals_.empty()) {
+    const double oldest = intervals_.back().end - options_.history;
+    while (!intervals_.empty() && intervals_.front().begin < oldest) intervals_.pop_front();
+  }
+  if (gyro_.size() < 2) return;
+  // IMU samples are kept for the history plus the search radius around any plausible offset;
+  // without camera intervals yet, for the history alone (on the IMU clock).
+  const double keep = options_.history + 2.0 * options_.search_radius + 1.0;
+  while (gyro_.size() > 2 && gyro_[1].t < gyro_.back().t - keep) gyro_.pop_front();
+}
+
+Eigen::Vector3d ClockOffsetEstimator::integral_at(double t) const {
+  auto it = std::upper_bound(gyro_.begin(), gyro_.end(), t,
+                             [](double value, const Gyro& g) { return value < g.t; });
+  if (it == gyro_.begin()) return gyro_.front().integral;
+  if (it == gyro_.end()) return gyro_.back().integral;
+  const Gyro& a = *(it - 1);
+  const Gyro& b = *it;
+  const double h = b.t - a.t;
+  const double dt = t - a.t;
+  // Exact integral of the linear interpolation between the two samples.
+  return a.integral + a.rate * dt + 0.5 * (b.rate - a.rate) * dt * dt / h;
+}
+
+double ClockOffsetEstimator::mean_rate(double begin, double end) const {
+  return (integral_at(end) - integral_at(begin)).norm() / (end - begin);
+}
+
+ClockOffsetEstimate ClockOffsetEstimator::estimate() const {
+  ClockOffsetEstimate result;
+  std::optional<double> centre;
+  if (has_arrival_) {
+    centre = arrival_.offset();
+    result.source = ClockOffsetEstimate::Source::kArrival;
+    result.offset = *centre;
+  } else if (prior_offset_) {
+    centre = prior_offset_;
+    result.offset = *prior_offset_;
+  }
+  if (!centre || gyro_.size() < 2) return result;
+
+  // Intervals whose shifted span lies inside the IMU data for every lag searched, so that all
+  // lags are compared on the same samples.
+  const double radius = options_.search_radius;
+  std::vector<const Interval*> used;
+  for (const Interval& interval : intervals_) {
+    if (interval.begin - *centre - radius >= gyro_.front().t &&
+        interval.end - *centre + radius <= gyro_.back().t) {
+      used.push_back(&interval);
+    }
+  }
+  if (used.size() < options_.min_intervals) return result;
+
+  const auto n = static_cast<double>(used.size());
+  double camera_mean = 0.0;
+  for (const Interval* interval : used) camera_mean += interval->rate;
+  camera_mean /= n;
+  double camera_ss = 0.0;
+  for (const Interval* interval : used) {
+    camera_ss += (interval->rate - camera_mean) * (interval->rate - camera_mean);
+  }
+  if (std::sqrt(camera_ss / n) < options_.min_rate_std) return result;
+
+  const int steps = std::max(1, static_cast<int>(std::lround(radius / options_.lag_step)));
+  std::vector<double> ncc(2 * steps + 1, -1.0);
+  std::vector<double> gyro_rates(used.size());
+  for (int i = 0; i <= 2 * steps; ++i) {
+    const double offset = *centre + (i - steps) * options_.lag_step;
+    double gyro_mean = 0.0;
+    for (std::size_t k = 0; k < used.size(); ++k) {
+      gyro_rates[k] = mean_rate(used[k]->begin - offset, used[k]->end - offset);
+      gyro_mean += gyro_rates[k];
+    }
+    gyro_mean /= n;
+    double cross = 0.0, gyro_ss = 0.0;
+    for (std::size_t k = 0; k < used.size(); ++k) {
+      const double g = gyro_rates[k] - gyro_mean;
+      cross += g * (used[k]->rate - camera_mean);
+      gyro_ss += g * g;
+    }
+    if (gyro_ss > 0.0) ncc[i] = cross / std::sqrt(gyro_ss * camera_ss);
+  }
+  const auto best = static_cast<int>(std::max_element(ncc.begin(), ncc.end()) - ncc.begin());
+  // A peak on the border of the search is a slope, not a maximum: keep the arrival estimate.
+  if (best == 0 || best == 2 * steps || ncc[best] <= 0.0) return result;
+
+  // Sub-step refinement: vertex of the parabola through the peak and its two neighbours.
+  const double left = ncc[best - 1], peak = ncc[best], right = ncc[best + 1];
+  const double curvature = left - 2.0 * peak + right;
+  double shift = 0.0;
+  if (curvature < 0.0) shift = std::clamp(0.5 * (left - right) / curvature, -0.5, 0.5);
+  result.source = ClockOffsetEstimate::Source::kCorrelation;
+  result.offset = *centre + (best - steps + shift) * options_.lag_step;
+  result.correlation = peak;
+  result.confidence = std::clamp(peak, 0.0, 1.0);
+  result.intervals = used.size();
+  return result;
+}
+
+}  // namespace imufusion
