@@ -1,7 +1,7 @@
 // fusion_bench: the sparse TSDF volume at 640x480 and 1 cm voxels on the synthetic furnished
 // room, fused with ground-truth poses. Prints the median GPU time per frame of allocation,
-// integration and raycast, the CPU time of meshing the whole volume, and the blocks and bytes
-// used after the scan.
+// integration and raycast (its range pass and its march), the mean march steps per ray, the CPU
+// time of meshing the whole volume, and the blocks and bytes used after the scan.
 //
 //   fusion_bench [--frames N] [--raycast-every N] [--voxel-size M]
 
@@ -54,6 +54,7 @@ int main(int argc, char** argv) {
   }
   std::map<std::string, std::vector<double>> ms;
   std::uint64_t pool_full = 0;
+  std::uint64_t steps = 0, rays = 0, marched = 0;
   for (int f = 0; f < frames; ++f) {
     const Eigen::Isometry3d T = motion.pose_at(f / 30.0);
     const synth::RenderedFrame frame = synth::render_frame(scene, T, k, synth::SensorModel{}, 100 + f, true);
@@ -73,7 +74,22 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "%s\n", images.error().describe().c_str());
         return 1;
       }
-      for (const KernelTiming& t : rt) ms[t.kernel].push_back(t.gpu_ms);
+      double total = 0;
+      for (const KernelTiming& t : rt) {
+        ms[t.kernel].push_back(t.gpu_ms);
+        total += t.gpu_ms;
+      }
+      ms["raycast total"].push_back(total);
+      auto ray_steps = fusion->last_raycast_steps();
+      if (!ray_steps) {
+        std::fprintf(stderr, "%s\n", ray_steps.error().describe().c_str());
+        return 1;
+      }
+      for (std::uint32_t n : *ray_steps) {
+        steps += n;
+        marched += n > 0 ? 1 : 0;
+      }
+      rays += ray_steps->size();
     }
   }
   auto snapshot = fusion->snapshot();
@@ -84,8 +100,13 @@ int main(int argc, char** argv) {
   if (!mesh) return 1;
   std::printf("device %s, 640x480, voxel %.3f m, %d frames of the synthetic room\n",
               fusion->device().name.c_str(), voxel_size, frames);
-  for (const char* kernel : {"volume_allocate", "volume_integrate", "volume_raycast"})
-    std::printf("  %-17s median %8.2f ms per frame (%zu samples)\n", kernel, median(ms[kernel]), ms[kernel].size());
+  for (const char* kernel :
+       {"volume_allocate", "volume_integrate", "volume_raycast_range", "volume_raycast", "raycast total"})
+    std::printf("  %-20s median %8.2f ms per frame (%zu samples)\n", kernel, median(ms[kernel]), ms[kernel].size());
+  std::printf("  march steps per ray: mean %.1f over all rays, %.1f over the %.1f%% of rays that march\n",
+              double(steps) / double(std::max<std::uint64_t>(rays, 1)),
+              double(steps) / double(std::max<std::uint64_t>(marched, 1)),
+              100.0 * double(marched) / double(std::max<std::uint64_t>(rays, 1)));
   std::printf("  %-17s %8.2f ms (CPU, %zu blocks -> %zu triangles)\n", "marching cubes", mesh_ms,
               snapshot->blocks.size(), mesh->triangles.size());
   std::printf("  blocks allocated %u, voxel memory in use %.1f MiB (8 bytes per voxel), pool + table %.1f MiB, pool-full events %llu\n",

@@ -9,14 +9,17 @@ layout(std430, set = 0, binding = 2) buffer Values { uint values[]; };
 layout(std430, set = 0, binding = 3) buffer Stamps { uint stamps[]; };
 layout(std430, set = 0, binding = 4) buffer Visible { uint visible[]; };  // hash slots
 layout(std430, set = 0, binding = 5) buffer Counters { uint counters[]; };
+layout(std430, set = 0, binding = 6) buffer BlockSlots { uint block_slots[]; };  // pool -> slot
 layout(push_constant) uniform Push { VolumeAllocateParams p; };
 
 #include "volume_common.glsl"
 
+// Lists the slot once this frame. Neighbouring pixels touch the same blocks: the plain read ends
+// most repeats without an atomic (a stale read only falls through to the exchange).
 void mark_visible(uint slot) {
+  if (stamps[slot] == p.frame_stamp) return;
   if (atomicExchange(stamps[slot], p.frame_stamp) == p.frame_stamp) return;
-  uint index = atomicAdd(counters[VOLUME_COUNTER_VISIBLE], 1u);
-  if (index < p.block_capacity) visible[index] = slot;
+  visible[atomicAdd(counters[VOLUME_COUNTER_VISIBLE], 1u)] = slot;  // < hash_slots entries
 }
 
 void insert(ivec3 b) {
@@ -27,20 +30,22 @@ void insert(ivec3 b) {
   uint key = pack_key(b);
   uint slot = hash_block(b, p.hash_mask);
   for (int probe = 0; probe < VOLUME_MAX_PROBES; ++probe) {
-    uint previous = atomicCompSwap(keys[slot], VOLUME_EMPTY_KEY, key);
-    if (previous == VOLUME_EMPTY_KEY) {
-      uint index = atomicAdd(counters[VOLUME_COUNTER_ALLOCATED], 1u);
-      if (index < p.block_capacity) {
-        values[slot] = index;
+    // A key, once written, never changes: a plain read that sees one is final; one that sees
+    // an empty slot is checked by the compare-and-swap.
+    uint k = keys[slot];
+    if (k == VOLUME_EMPTY_KEY) {
+      k = atomicCompSwap(keys[slot], VOLUME_EMPTY_KEY, key);
+      if (k == VOLUME_EMPTY_KEY) {
+        uint index = atomicAdd(counters[VOLUME_COUNTER_ALLOCATED], 1u);
+        bool stored = index < p.block_capacity;
+        values[slot] = stored ? index : VOLUME_NO_BLOCK;
+        if (stored) block_slots[index] = slot;
         mark_visible(slot);
-      } else {
-        values[slot] = VOLUME_NO_BLOCK;
-        atomicAdd(counters[VOLUME_COUNTER_POOL_FULL], 1u);
+        return;
       }
-      return;
     }
-    if (previous == key) {
-      if (values[slot] != VOLUME_NO_BLOCK) mark_visible(slot);
+    if (k == key) {
+      mark_visible(slot);
       return;
     }
     slot = (slot + 1u) & p.hash_mask;

@@ -13,6 +13,7 @@ layout(std430, set = 0, binding = 3) readonly buffer Values { uint values[]; };
 layout(std430, set = 0, binding = 4) readonly buffer Visible { uint visible[]; };
 layout(std430, set = 0, binding = 5) buffer TsdfWeight { uint tsdf_weight[]; };
 layout(std430, set = 0, binding = 6) buffer Colors { uint colors[]; };
+layout(std430, set = 0, binding = 7) buffer Counters { uint counters[]; };
 layout(push_constant) uniform Push { VolumeIntegrateParams p; };
 
 #include "volume_common.glsl"
@@ -22,7 +23,10 @@ void main() {
   if (entry >= p.visible_count) return;
   uint slot = visible[entry];
   uint block = values[slot];
-  if (block == VOLUME_NO_BLOCK) return;
+  if (block == VOLUME_NO_BLOCK) {  // touched, but refused storage when the pool filled
+    if (gl_LocalInvocationIndex == 0u) atomicAdd(counters[VOLUME_COUNTER_POOL_FULL], 1u);
+    return;
+  }
   ivec3 b = unpack_key(keys[slot]);
   mat3 R = mat3(p.r00, p.r10, p.r20, p.r01, p.r11, p.r21, p.r02, p.r12, p.r22);
   vec3 t = vec3(p.tx, p.ty, p.tz);

@@ -11,49 +11,45 @@ layout(std430, set = 0, binding = 4) writeonly buffer Vertices { vec4 vertices[]
 layout(std430, set = 0, binding = 5) writeonly buffer Normals { vec4 normals[]; };    // camera frame
 layout(std430, set = 0, binding = 6) writeonly buffer Shaded { uint shaded[]; };      // RGBA8
 layout(std430, set = 0, binding = 7) writeonly buffer Colors { uint colors[]; };      // RGBA8
+layout(std430, set = 0, binding = 8) readonly buffer Range { uint range[]; };  // volume_raycast_range
+layout(std430, set = 0, binding = 9) writeonly buffer Steps { uint steps[]; };  // march steps per ray
 layout(push_constant) uniform Push { VolumeRaycastParams p; };
 
 #include "volume_common.glsl"
 
-// Voxel (tsdf, weight) and colour at offset i inside pool block `block`.
-vec2 voxel_in_block(uint block, ivec3 i, out uint color) {
-  uint index = block * uint(VOLUME_BLOCK_VOXELS) + uint(i.x + VOLUME_BLOCK_SIDE * (i.y + VOLUME_BLOCK_SIDE * i.z));
-  uint word0 = tsdf_weight[index];
-  color = voxel_colors[index];
-  return vec2(unpack_tsdf(word0), float(unpack_weight(word0)));
+// The packed (tsdf, weight) word and its colour of the voxel at lattice point l, in pool block
+// `block` of block coordinate b, or in the block that holds l when it is not b.
+uint voxel_word(ivec3 l, ivec3 b, uint block, out uint index) {
+  ivec3 lb = l >> 3;  // floor(l / VOLUME_BLOCK_SIDE)
+  if (lb != b) block = find_block(lb, p.hash_mask);
+  if (block == VOLUME_NO_BLOCK) return 0u;  // weight 0: unobserved
+  ivec3 i = l - lb * VOLUME_BLOCK_SIDE;
+  index = block * uint(VOLUME_BLOCK_VOXELS) + uint(i.x + VOLUME_BLOCK_SIDE * (i.y + VOLUME_BLOCK_SIDE * i.z));
+  return tsdf_weight[index];
 }
 
-// The voxel at lattice point l: (tsdf, weight), weight 0 when unallocated or unobserved.
-vec2 voxel_at(ivec3 l, out uint color) {
-  ivec3 b = ivec3(floor(vec3(l) / float(VOLUME_BLOCK_SIDE)));
-  uint block = find_block(b, p.hash_mask);
-  color = 0u;
-  if (block == VOLUME_NO_BLOCK) return vec2(1.0, 0.0);
-  return voxel_in_block(block, l - b * VOLUME_BLOCK_SIDE, color);
-}
-
-// Trilinear TSDF at world point w; false when a corner is unobserved. The 8 corners usually lie
-// in one block (343 of 512 cells): then the block is looked up once.
-bool sample_tsdf(vec3 w, out float tsdf, out vec3 rgb) {
+// Trilinear TSDF at world point w (and the colour when with_color); false when a corner is
+// unobserved. `block` is the pool block of the block that holds floor(w / voxel_size), or
+// VOLUME_NO_BLOCK to look it up: the 8 corners usually lie in it (343 of 512 cells), and only
+// corners in a neighbouring block cost a lookup.
+bool sample_tsdf(vec3 w, uint block, bool with_color, out float tsdf, out vec3 rgb) {
   vec3 g = w / p.voxel_size;
   ivec3 base = ivec3(floor(g));
   vec3 f = g - vec3(base);
+  ivec3 b = base >> 3;
+  if (block == VOLUME_NO_BLOCK) block = find_block(b, p.hash_mask);
   tsdf = 0.0;
   rgb = vec3(0.0);
-  ivec3 b = ivec3(floor(vec3(base) / float(VOLUME_BLOCK_SIDE)));
-  ivec3 local = base - b * VOLUME_BLOCK_SIDE;
-  bool one_block = all(lessThan(local, ivec3(VOLUME_BLOCK_SIDE - 1)));
-  uint block = one_block ? find_block(b, p.hash_mask) : VOLUME_NO_BLOCK;
-  if (one_block && block == VOLUME_NO_BLOCK) return false;
+  if (block == VOLUME_NO_BLOCK) return false;
   for (int c = 0; c < 8; ++c) {
     ivec3 o = ivec3(c & 1, (c >> 1) & 1, c >> 2);
-    uint packed_color;
-    vec2 v = one_block ? voxel_in_block(block, local + o, packed_color) : voxel_at(base + o, packed_color);
-    if (v.y <= 0.0) return false;
+    uint index;
+    uint word0 = voxel_word(base + o, b, block, index);
+    if (unpack_weight(word0) == 0u) return false;
     vec3 s = mix(1.0 - f, f, vec3(o));
     float weight = s.x * s.y * s.z;
-    tsdf += weight * v.x;
-    rgb += weight * unpackUnorm4x8(packed_color).rgb;
+    tsdf += weight * unpack_tsdf(word0);
+    if (with_color) rgb += weight * unpackUnorm4x8(voxel_colors[index]).rgb;
   }
   return true;
 }
@@ -69,29 +65,45 @@ void main() {
   uvec2 px = gl_GlobalInvocationID.xy;
   if (px.x >= p.width || px.y >= p.height) return;
   uint i = px.y * p.width + px.x;
+  uint cell = (px.y / uint(VOLUME_RANGE_TILE)) * p.range_width + px.x / uint(VOLUME_RANGE_TILE);
+  uint lo_bits = range[2u * cell];
+  if (lo_bits == 0u) {  // no allocated block projects here
+    write_miss(i);
+    steps[i] = 0u;
+    return;
+  }
   mat3 R = mat3(p.r00, p.r10, p.r20, p.r01, p.r11, p.r21, p.r02, p.r12, p.r22);
   vec3 origin = vec3(p.tx, p.ty, p.tz);
   vec3 ray_c = vec3((float(px.x) - p.cx) / p.fx, (float(px.y) - p.cy) / p.fy, 1.0);
   float ray_scale = length(ray_c);  // metres along the ray per metre of depth
   vec3 dir = R * (ray_c / ray_scale);
   float block_length = p.voxel_size * float(VOLUME_BLOCK_SIDE);
-  float t = p.near_depth * ray_scale;
-  float t_far = p.far_depth * ray_scale;
+  float skip = 0.5 * block_length;
+  float t_near = p.near_depth * ray_scale;
+  // The full march from t_near steps `skip` at a time through unallocated blocks, and every
+  // block on this ray lies within the cell's range: start at its last step before the range and
+  // stop past the range (see VolumeRangeParams).
+  float t_range_lo = uintBitsToFloat(~lo_bits) * ray_scale;
+  float t_range_hi = uintBitsToFloat(range[2u * cell + 1u]) * ray_scale;
+  float t = t_near + max(floor((t_range_lo - t_near) / skip), 0.0) * skip;
+  float t_far = min(p.far_depth * ray_scale, t_range_hi);
   float previous_tsdf = 0.0;
   float previous_t = 0.0;
   bool have_previous = false;
   float hit_t = -1.0;
+  uint step_count = 0u;
   while (t < t_far) {
+    ++step_count;
     vec3 w = origin + t * dir;
-    ivec3 b = ivec3(floor(w / block_length));
-    if (find_block(b, p.hash_mask) == VOLUME_NO_BLOCK) {
+    uint block = find_block(ivec3(floor(w / p.voxel_size)) >> 3, p.hash_mask);
+    if (block == VOLUME_NO_BLOCK) {
       have_previous = false;
-      t += 0.5 * block_length;
+      t += skip;
       continue;
     }
     float tsdf;
-    vec3 rgb;
-    if (!sample_tsdf(w, tsdf, rgb)) {
+    vec3 unused;
+    if (!sample_tsdf(w, block, false, tsdf, unused)) {
       have_previous = false;
       t += 0.5 * p.voxel_size;
       continue;
@@ -105,6 +117,7 @@ void main() {
     have_previous = true;
     t += max(0.8 * tsdf * p.truncation, 0.5 * p.voxel_size);
   }
+  steps[i] = step_count;
   if (hit_t < 0.0) {
     write_miss(i);
     return;
@@ -118,12 +131,13 @@ void main() {
   for (int axis = 0; axis < 3; ++axis) {
     vec3 e = vec3(0.0);
     e[axis] = p.voxel_size;
-    ok = ok && sample_tsdf(hit + e, plus, unused) && sample_tsdf(hit - e, minus, unused);
+    ok = ok && sample_tsdf(hit + e, VOLUME_NO_BLOCK, false, plus, unused) &&
+         sample_tsdf(hit - e, VOLUME_NO_BLOCK, false, minus, unused);
     gradient[axis] = plus - minus;
   }
   float tsdf_hit;
   vec3 rgb_hit;
-  if (!ok || length(gradient) <= 0.0 || !sample_tsdf(hit, tsdf_hit, rgb_hit)) {
+  if (!ok || length(gradient) <= 0.0 || !sample_tsdf(hit, VOLUME_NO_BLOCK, true, tsdf_hit, rgb_hit)) {
     write_miss(i);
     return;
   }

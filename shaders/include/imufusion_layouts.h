@@ -109,16 +109,20 @@ struct IcpReduceParams {
 #define VOLUME_MAX_PROBES 64
 #define VOLUME_BLOCK_SIDE 8
 #define VOLUME_BLOCK_VOXELS 512
-// counters[]: what the allocation pass reports.
+// counters[]: what the allocation and integration passes report.
 #define VOLUME_COUNTER_ALLOCATED 0     // pool blocks handed out (may exceed capacity: overflow)
-#define VOLUME_COUNTER_VISIBLE 1       // entries written to the visible list this frame
-#define VOLUME_COUNTER_POOL_FULL 2     // blocks that found no room in the pool
+#define VOLUME_COUNTER_VISIBLE 1       // hash slots the frame touched (visible list entries)
+#define VOLUME_COUNTER_POOL_FULL 2     // of those, blocks without pool storage (counted by integrate)
 #define VOLUME_COUNTER_TABLE_FULL 3    // insertions that found no free slot within the probes
 #define VOLUME_COUNTER_OUT_OF_RANGE 4  // block coordinates outside the key range
 #define VOLUME_COUNTERS 8
 
 // volume_allocate: per depth pixel, the blocks crossed by the ray segment within +-truncation of
-// the measured depth (sampled every half block along the segment) are inserted and marked visible.
+// the measured depth (sampled every half block along the segment) are inserted, and each hash
+// slot touched is appended once per frame (visibility stamp) to the visible list, which has one
+// entry per hash slot: a slot whose block found no pool storage is listed too, so no race with
+// its inserter can push a stored block off the list. The inserter of a block that got pool index
+// i writes block_slots[i] = its slot.
 struct VolumeAllocateParams {
   uint width;
   uint height;
@@ -136,7 +140,8 @@ struct VolumeAllocateParams {
   uint frame_stamp;   // > 0, new every frame
 };
 
-// volume_integrate: one workgroup per visible block (a 2-D grid of groups, entry = x + width * y,
+// volume_integrate: one workgroup per visible-list entry (a listed slot without pool storage
+// only counts VOLUME_COUNTER_POOL_FULL) (a 2-D grid of groups, entry = x + width * y,
 // so more blocks than maxComputeWorkGroupCount[0] can be visible); each voxel is projected into the depth
 // image (camera pose T_camera_world), sdf = depth - z, skipped below -truncation, then
 // tsdf = min(1, sdf / truncation) enters a running average with the weight capped at max_weight.
@@ -157,10 +162,36 @@ struct VolumeIntegrateParams {
   uint has_color;  // 1: colour (RGBA8 per pixel) is bound and averaged too
 };
 
-// volume_raycast: per pixel, march the ray from near to far: unallocated blocks are skipped a
-// block at a time, observed space in steps of 0.8 * tsdf * truncation (at least half a voxel);
-// the first + to - crossing of the trilinear TSDF is refined linearly. Output (camera frame of
-// the pose): vertex and normal maps (w = 1 where hit), a shaded image and the surface colour.
+// volume_raycast_range: one invocation per pool block (block_slots[0..block_count)): the part of
+// the block at z >= near_depth is projected with the raycast pose, and every range cell (a tile
+// of VOLUME_RANGE_TILE^2 pixels) whose pixel centres its bounding box may cover gets the block's
+// z-depth interval (widened by half a voxel). range[2 c] = max over blocks of ~bits(z_min) (0:
+// no block), range[2 c + 1] = max of bits(z_max): positive floats order as their bits, so the
+// buffer starts zeroed and only atomicMax is used.
+#define VOLUME_RANGE_TILE 8
+struct VolumeRangeParams {
+  uint width;   // raycast image, pixels
+  uint height;
+  float fx;
+  float fy;
+  float cx;
+  float cy;
+  float r00, r01, r02, tx;  // T_camera_world, row-major 3x4
+  float r10, r11, r12, ty;
+  float r20, r21, r22, tz;
+  float voxel_size;
+  float near_depth;   // metres of z-depth
+  uint range_width;   // cells per row: ceil(width / VOLUME_RANGE_TILE)
+  uint block_count;   // pool blocks in use
+};
+
+// volume_raycast: per pixel, march the ray from near to far: unallocated blocks are skipped half
+// a block at a time, observed space in steps of 0.8 * tsdf * truncation (at least half a voxel);
+// the first + to - crossing of the trilinear TSDF is refined linearly. The range image only
+// shortens the march: it starts at the last half-block step (counted from near) before the
+// cell's z_min and ends past its z_max, where every sample of the full march would fall in
+// unallocated blocks, so the result is that of the full march. Output (camera frame of the
+// pose): vertex and normal maps (w = 1 where hit), a shaded image and the surface colour.
 struct VolumeRaycastParams {
   uint width;
   uint height;
@@ -173,9 +204,10 @@ struct VolumeRaycastParams {
   float r20, r21, r22, tz;
   float voxel_size;
   float truncation;
-  float near_depth;  // metres along the ray
+  float near_depth;  // metres of z-depth (along the optical axis)
   float far_depth;
   uint hash_mask;
+  uint range_width;  // cells per row of the range image
 };
 
 #ifdef __cplusplus

@@ -18,9 +18,10 @@ namespace imufusion {
 
 /// What one integration did, and what went wrong without corrupting the volume.
 struct IntegrationStats {
-  std::uint32_t visible_blocks = 0;     // blocks touched by this frame
+  std::uint32_t visible_blocks = 0;     // blocks touched by this frame and fused
   std::uint32_t allocated_blocks = 0;   // blocks in the pool after it
-  std::uint32_t pool_full = 0;          // blocks that found no room in the pool (not fused)
+  std::uint32_t pool_full = 0;          // blocks touched by this frame that have no room in the
+                                        // full pool, refused now or in an earlier frame (not fused)
   std::uint32_t table_full = 0;         // insertions that found no free hash slot (not fused)
   std::uint32_t out_of_range = 0;       // block coordinates beyond the key range (not fused)
 };
@@ -51,6 +52,9 @@ class TsdfFusion {
                                 std::optional<Intrinsics> intrinsics = std::nullopt,
                                 std::vector<KernelTiming>* timings = nullptr,
                                 std::optional<std::pair<float, float>> depth_range = std::nullopt);
+  /// March steps of each ray (row-major pixels) of the last raycast, for profiling: 0 where no
+  /// allocated block projects into the pixel's range cell.
+  Result<std::vector<std::uint32_t>> last_raycast_steps() const;
   /// The allocated blocks, downloaded.
   Result<HostVolume> snapshot() const;
   Status reset();

@@ -5,7 +5,7 @@
 namespace imufusion::gpu {
 namespace {
 
-constexpr std::uint32_t kMaxBuffersPerDispatch = 8;
+constexpr std::uint32_t kMaxBuffersPerDispatch = 12;  // descriptors reserved per dispatch
 constexpr std::uint64_t kFenceTimeoutNs = 120ull * 1000 * 1000 * 1000;
 
 }  // namespace

@@ -128,14 +128,18 @@ Result<RaycastImages> TsdfFusion::raycast(const Eigen::Isometry3d& T_world_camer
   return out;
 }
 
+Result<std::vector<std::uint32_t>> TsdfFusion::last_raycast_steps() const {
+  return impl_->volume.last_raycast_steps();
+}
 Result<HostVolume> TsdfFusion::snapshot() const { return impl_->volume.snapshot(); }
 Status TsdfFusion::reset() { return impl_->volume.reset(); }
 const DeviceInfo& TsdfFusion::device() const { return impl_->context->info(); }
 std::uint32_t TsdfFusion::allocated_blocks() const { return impl_->volume.allocated_blocks(); }
 std::uint64_t TsdfFusion::memory_bytes() const {
   const VolumeConfig& c = impl_->volume.config();
-  return std::uint64_t{c.block_capacity} * kBlockVoxels * 8 + std::uint64_t{c.hash_slots} * 12 +
-         std::uint64_t{c.block_capacity} * 4;
+  // Pool (8 bytes per voxel) and its slot per block; per hash slot a key, pool index, stamp and
+  // visible-list entry.
+  return std::uint64_t{c.block_capacity} * (kBlockVoxels * 8 + 4) + std::uint64_t{c.hash_slots} * 16;
 }
 std::uint32_t TsdfFusion::validation_error_count() const {
   return impl_->context->validation_error_count();

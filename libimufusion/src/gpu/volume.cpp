@@ -65,9 +65,11 @@ Result<TsdfVolume> TsdfVolume::create(std::shared_ptr<Context> context, const Vo
     out = std::move(*pipeline);
     return {};
   };
-  IMUFUSION_RETURN_IF_ERROR(make({"volume_allocate", 6, sizeof(layout::VolumeAllocateParams), wx, wy}, v.allocate_));
-  IMUFUSION_RETURN_IF_ERROR(make({"volume_integrate", 7, sizeof(layout::VolumeIntegrateParams), 8, 8}, v.integrate_));
-  IMUFUSION_RETURN_IF_ERROR(make({"volume_raycast", 8, sizeof(layout::VolumeRaycastParams), wx, wy}, v.raycast_));
+  IMUFUSION_RETURN_IF_ERROR(make({"volume_allocate", 7, sizeof(layout::VolumeAllocateParams), wx, wy}, v.allocate_));
+  IMUFUSION_RETURN_IF_ERROR(make({"volume_integrate", 8, sizeof(layout::VolumeIntegrateParams), 8, 8}, v.integrate_));
+  IMUFUSION_RETURN_IF_ERROR(
+      make({"volume_raycast_range", 4, sizeof(layout::VolumeRangeParams), 64, 1}, v.range_pipeline_));
+  IMUFUSION_RETURN_IF_ERROR(make({"volume_raycast", 10, sizeof(layout::VolumeRaycastParams), wx, wy}, v.raycast_));
   auto alloc = [&](std::size_t bytes, Buffer& out) -> Status {
     auto buffer = Buffer::create(context, bytes);
     if (!buffer) return buffer.error();
@@ -78,8 +80,10 @@ Result<TsdfVolume> TsdfVolume::create(std::shared_ptr<Context> context, const Vo
   IMUFUSION_RETURN_IF_ERROR(alloc(slots * 4, v.keys_));
   IMUFUSION_RETURN_IF_ERROR(alloc(slots * 4, v.values_));
   IMUFUSION_RETURN_IF_ERROR(alloc(slots * 4, v.stamps_));
-  IMUFUSION_RETURN_IF_ERROR(alloc(std::size_t{config.block_capacity} * 4, v.visible_));
+  // One visible-list entry per slot: a frame lists each slot at most once (see volume_allocate).
+  IMUFUSION_RETURN_IF_ERROR(alloc(slots * 4, v.visible_));
   IMUFUSION_RETURN_IF_ERROR(alloc(VOLUME_COUNTERS * 4, v.counters_));
+  IMUFUSION_RETURN_IF_ERROR(alloc(std::size_t{config.block_capacity} * 4, v.block_slots_));
   IMUFUSION_RETURN_IF_ERROR(alloc(std::size_t{config.block_capacity} * kBlockVoxels * 4, v.tsdf_weight_));
   IMUFUSION_RETURN_IF_ERROR(alloc(std::size_t{config.block_capacity} * kBlockVoxels * 4, v.voxel_colors_));
   IMUFUSION_RETURN_IF_ERROR(alloc(4, v.no_color_));
@@ -109,9 +113,12 @@ Result<IntegrationStats> TsdfVolume::integrate(const Buffer& depth, const Buffer
                                                std::vector<KernelTiming>* timings) {
   if (!T_world_camera.matrix().allFinite())
     return make_error(ErrorCode::kInvalidArgument, "integration pose is not finite");
+  // Only the allocation count carries over from frame to frame.
   std::uint32_t counters[VOLUME_COUNTERS] = {};
   IMUFUSION_RETURN_IF_ERROR(counters_.download(counters, sizeof(counters)));
-  counters[VOLUME_COUNTER_VISIBLE] = 0;
+  const std::uint32_t allocated = counters[VOLUME_COUNTER_ALLOCATED];
+  std::fill(std::begin(counters), std::end(counters), 0u);
+  counters[VOLUME_COUNTER_ALLOCATED] = allocated;
   IMUFUSION_RETURN_IF_ERROR(counters_.upload(counters, sizeof(counters)));
   ++frame_stamp_;
   if (frame_stamp_ == 0) {  // wrapped after 2^32 frames: old stamps could collide
@@ -128,25 +135,20 @@ Result<IntegrationStats> TsdfVolume::integrate(const Buffer& depth, const Buffer
   ap.block_capacity = config_.block_capacity;
   ap.frame_stamp = frame_stamp_;
   IMUFUSION_RETURN_IF_ERROR(seq_.begin());
-  seq_.dispatch(allocate_, {&depth, &keys_, &values_, &stamps_, &visible_, &counters_}, ap, ap.width,
-                ap.height, "volume_allocate");
+  seq_.dispatch(allocate_, {&depth, &keys_, &values_, &stamps_, &visible_, &counters_, &block_slots_},
+                ap, ap.width, ap.height, "volume_allocate");
   auto t1 = seq_.submit_and_wait();
   if (!t1) return t1.error();
   if (timings != nullptr) timings->insert(timings->end(), t1->begin(), t1->end());
   IMUFUSION_RETURN_IF_ERROR(counters_.download(counters, sizeof(counters)));
 
   IntegrationStats stats;
-  stats.visible_blocks = std::min(counters[VOLUME_COUNTER_VISIBLE], config_.block_capacity);
+  const std::uint32_t listed = counters[VOLUME_COUNTER_VISIBLE];  // touched slots, <= hash_slots
   allocated_ = std::min(counters[VOLUME_COUNTER_ALLOCATED], config_.block_capacity);
   stats.allocated_blocks = allocated_;
-  stats.pool_full = counters[VOLUME_COUNTER_POOL_FULL];
   stats.table_full = counters[VOLUME_COUNTER_TABLE_FULL];
   stats.out_of_range = counters[VOLUME_COUNTER_OUT_OF_RANGE];
-  // The overflow counters are per frame.
-  counters[VOLUME_COUNTER_POOL_FULL] = counters[VOLUME_COUNTER_TABLE_FULL] = 0;
-  counters[VOLUME_COUNTER_OUT_OF_RANGE] = 0;
-  IMUFUSION_RETURN_IF_ERROR(counters_.upload(counters, sizeof(counters)));
-  if (stats.visible_blocks == 0) return stats;
+  if (listed == 0) return stats;
 
   layout::VolumeIntegrateParams ip{};
   set_intrinsics(ip, k);
@@ -154,19 +156,23 @@ Result<IntegrationStats> TsdfVolume::integrate(const Buffer& depth, const Buffer
   ip.voxel_size = config_.voxel_size;
   ip.truncation = config_.truncation();
   ip.max_weight = static_cast<std::uint32_t>(config_.max_weight);
-  ip.visible_count = stats.visible_blocks;
+  ip.visible_count = listed;
   ip.has_color = color != nullptr ? 1u : 0u;
   IMUFUSION_RETURN_IF_ERROR(seq_.begin());
-  // One 8x8 workgroup per visible block, on a 2-D grid of groups (x at most 32768 wide).
-  const std::uint32_t groups_x = std::min<std::uint32_t>(stats.visible_blocks, 32768);
-  const std::uint32_t groups_y = (stats.visible_blocks + groups_x - 1) / groups_x;
+  // One 8x8 workgroup per listed slot, on a 2-D grid of groups (x at most 32768 wide).
+  const std::uint32_t groups_x = std::min<std::uint32_t>(listed, 32768);
+  const std::uint32_t groups_y = (listed + groups_x - 1) / groups_x;
   seq_.dispatch(integrate_,
                 {&depth, color != nullptr ? color : &no_color_, &keys_, &values_, &visible_,
-                 &tsdf_weight_, &voxel_colors_},
+                 &tsdf_weight_, &voxel_colors_, &counters_},
                 ip, 8 * groups_x, 8 * groups_y, "volume_integrate");
   auto t2 = seq_.submit_and_wait();
   if (!t2) return t2.error();
   if (timings != nullptr) timings->insert(timings->end(), t2->begin(), t2->end());
+  IMUFUSION_RETURN_IF_ERROR(counters_.download(counters, sizeof(counters)));
+  // Every touched block is either fused or counted as refused by the full pool.
+  stats.pool_full = counters[VOLUME_COUNTER_POOL_FULL];
+  stats.visible_blocks = listed - stats.pool_full;
   return stats;
 }
 
@@ -184,14 +190,49 @@ Status TsdfVolume::raycast(const Intrinsics& k, const Eigen::Isometry3d& T_world
   rp.near_depth = near_depth;
   rp.far_depth = far_depth;
   rp.hash_mask = config_.hash_slots - 1;
+  rp.range_width = (rp.width + VOLUME_RANGE_TILE - 1) / VOLUME_RANGE_TILE;
+  IMUFUSION_RETURN_IF_ERROR(reserve_range(k.width, k.height));
+  IMUFUSION_RETURN_IF_ERROR(range_.clear());
+
+  layout::VolumeRangeParams qp{};
+  set_intrinsics(qp, k);
+  set_pose(qp, T_world_camera.inverse());
+  qp.voxel_size = config_.voxel_size;
+  qp.near_depth = near_depth;
+  qp.range_width = rp.range_width;
+  qp.block_count = allocated_;
   IMUFUSION_RETURN_IF_ERROR(seq_.begin());
+  if (allocated_ > 0) {
+    seq_.dispatch(range_pipeline_, {&keys_, &values_, &block_slots_, &range_}, qp, allocated_, 1,
+                  "volume_raycast_range");
+  }
   seq_.dispatch(raycast_,
-                {&keys_, &values_, &tsdf_weight_, &voxel_colors_, &vertices, &normals, &shaded, &colors}, rp,
-                rp.width, rp.height, "volume_raycast");
+                {&keys_, &values_, &tsdf_weight_, &voxel_colors_, &vertices, &normals, &shaded, &colors,
+                 &range_, &steps_},
+                rp, rp.width, rp.height, "volume_raycast");
   auto t = seq_.submit_and_wait();
   if (!t) return t.error();
   if (timings != nullptr) timings->insert(timings->end(), t->begin(), t->end());
   return {};
+}
+
+Status TsdfVolume::reserve_range(int width, int height) {
+  const std::size_t cells = std::size_t((width + VOLUME_RANGE_TILE - 1) / VOLUME_RANGE_TILE) *
+                            std::size_t((height + VOLUME_RANGE_TILE - 1) / VOLUME_RANGE_TILE);
+  const std::size_t pixels = std::size_t(width) * std::size_t(height);
+  for (auto [buffer, bytes] : {std::pair{&range_, cells * 8}, {&steps_, pixels * 4}}) {
+    if (buffer->size() >= bytes) continue;
+    auto created = Buffer::create(context_, bytes);
+    if (!created) return created.error();
+    *buffer = std::move(*created);
+  }
+  raycast_pixels_ = pixels;
+  return {};
+}
+
+Result<std::vector<std::uint32_t>> TsdfVolume::last_raycast_steps() const {
+  if (raycast_pixels_ == 0) return std::vector<std::uint32_t>{};
+  return steps_.download_as<std::uint32_t>(raycast_pixels_);
 }
 
 Result<HostVolume> TsdfVolume::snapshot() const {

@@ -33,6 +33,9 @@ class TsdfVolume {
                  const Buffer& shaded, const Buffer& colors,
                  std::vector<KernelTiming>* timings = nullptr);
 
+  /// March steps of each ray (row-major pixels) of the last raycast: where the time goes.
+  Result<std::vector<std::uint32_t>> last_raycast_steps() const;
+
   Result<HostVolume> snapshot() const;
   /// Empties the volume.
   Status reset();
@@ -42,10 +45,15 @@ class TsdfVolume {
   const std::shared_ptr<Context>& context() const { return context_; }
 
  private:
+  /// Ensures range_ holds the range image of a width x height raycast.
+  Status reserve_range(int width, int height);
+
   std::shared_ptr<Context> context_;
   VolumeConfig config_;
-  ComputePipeline allocate_, integrate_, raycast_;
-  Buffer keys_, values_, stamps_, visible_, counters_, tsdf_weight_, voxel_colors_, no_color_;
+  ComputePipeline allocate_, integrate_, range_pipeline_, raycast_;
+  Buffer keys_, values_, stamps_, visible_, counters_, block_slots_, tsdf_weight_, voxel_colors_,
+      no_color_, range_, steps_;
+  std::size_t raycast_pixels_ = 0;
   CommandSequence seq_;
   std::uint32_t frame_stamp_ = 0;
   std::uint32_t allocated_ = 0;

@@ -72,7 +72,9 @@ class CpuVolume {
                         const Intrinsics& intrinsics, const Eigen::Isometry3d& T_world_camera);
 
   /// March every pixel's ray from near_depth to far_depth (metres of z-depth) and return the
-  /// camera-frame vertex and normal maps, the shading and the fused colour at the hit.
+  /// camera-frame vertex and normal maps, the shading and the fused colour at the hit. The GPU
+  /// kernel marches only within a range image of the allocated blocks, where the full march can
+  /// meet a block; that shortens the march without changing its samples, so this is the full one.
   RaycastImages raycast(const Intrinsics& intrinsics, const Eigen::Isometry3d& T_world_camera,
                         double near_depth, double far_depth) const;
 
