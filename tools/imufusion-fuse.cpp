@@ -27,6 +27,7 @@
 #include "imufusion/synth.hpp"
 #include "imufusion/trajectory.hpp"
 #include "io/atomic_file.hpp"
+#include "overview_pose.hpp"
 
 namespace fs = std::filesystem;
 using namespace imufusion;
@@ -54,47 +55,6 @@ int usage(std::ostream& out, int code) {
 int fail(const std::string& message) {
   std::cerr << "error: " << message << "\n";
   return 1;
-}
-
-// The pose nearest to t within 20 ms, or nullptr.
-const StampedPose* pose_at(const Trajectory& poses, double t) {
-  auto it = std::lower_bound(poses.begin(), poses.end(), t,
-                             [](const StampedPose& p, double x) { return p.timestamp < x; });
-  const StampedPose* best = nullptr;
-  for (auto c : {it, it == poses.begin() ? it : it - 1}) {
-    if (c == poses.end()) continue;
-    if (best == nullptr || std::abs(c->timestamp - t) < std::abs(best->timestamp - t)) best = &*c;
-  }
-  return best != nullptr && std::abs(best->timestamp - t) <= 0.02 ? best : nullptr;
-}
-
-// A camera behind and above the first pose, looking at the centre of the allocated blocks, far
-// enough back to see all of them.
-Eigen::Isometry3d overview_pose(const HostVolume& volume, const Eigen::Isometry3d& first,
-                                const Intrinsics& k) {
-  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e9), hi = -lo;
-  const double block = volume.voxel_size * kBlockSide;
-  for (const VolumeBlock& b : volume.blocks) {
-    lo = lo.cwiseMin(b.coord.cast<double>() * block);
-    hi = hi.cwiseMax((b.coord.cast<double>() + Eigen::Vector3d::Ones()) * block);
-  }
-  const Eigen::Vector3d centre = 0.5 * (lo + hi);
-  const double radius = 0.5 * (hi - lo).norm();
-  const double half_fov = std::atan(0.5 * k.height / k.fy);
-  const double distance = radius / std::sin(half_fov);
-  const Eigen::Vector3d up = -first.linear().col(1);  // camera y points down
-  const Eigen::Vector3d back = -first.linear().col(2);
-  const Eigen::Vector3d eye = centre + distance * (0.8 * back + 0.6 * up).normalized();
-  const Eigen::Vector3d z = (centre - eye).normalized();
-  const Eigen::Vector3d x = z.cross(up).normalized().eval() * -1.0;
-  Eigen::Matrix3d R;
-  R.col(0) = -x;
-  R.col(2) = z;
-  R.col(1) = z.cross(R.col(0));
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = R;
-  T.translation() = eye;
-  return T;
 }
 
 double median(std::vector<double> v) {
@@ -181,7 +141,7 @@ int main(int argc, char** argv) {
   for (std::size_t i = 0; i < total; ++i) {
     auto frame = reader->next();
     if (!frame) return fail(frame.error().describe());
-    const StampedPose* pose = pose_at(poses, frame->timestamp);
+    const StampedPose* pose = find_pose(poses, frame->timestamp);
     if (pose == nullptr) {
       ++skipped;
       continue;
@@ -216,7 +176,7 @@ int main(int argc, char** argv) {
   auto preview = fusion->raycast(used.back().T_world_camera, std::nullopt, &raycast_timing);
   if (!preview) return fail(preview.error().describe());
   if (auto s = write_color_png(opt.out / "preview.png", preview->shaded); !s) return fail(s.error().describe());
-  auto overview = fusion->raycast(overview_pose(*snapshot, used.front().T_world_camera, k), std::nullopt,
+  auto overview = fusion->raycast(tools::overview_pose(*snapshot, used.front().T_world_camera, k), std::nullopt,
                                   nullptr, std::pair{0.1f, 100.0f});
   if (!overview) return fail(overview.error().describe());
   if (auto s = write_color_png(opt.out / "overview.png", overview->shaded); !s) return fail(s.error().describe());

@@ -18,6 +18,7 @@
 #include "imufusion/device.hpp"
 #include "imufusion/preprocess.hpp"
 #include "imufusion/sequence.hpp"
+#include "demo_sequence.hpp"
 #include "imufusion/synth.hpp"
 
 namespace fs = std::filesystem;
@@ -93,27 +94,6 @@ int parse(int argc, char** argv, Options& opt) {
   return -1;
 }
 
-// The demo sequence: reused when a complete one with the requested frame count is there.
-Result<fs::path> ensure_demo(const Options& opt) {
-  if (auto existing = SequenceReader::open(opt.demo_dir); existing.ok()) {
-    const auto& info = existing->info().info;
-    auto source = info.find("source");
-    if (source != info.end() && source->second.find("imufusion-synth") != std::string::npos &&
-        existing->frame_count() == static_cast<std::size_t>(opt.demo_frames)) {
-      return opt.demo_dir;
-    }
-  }
-  synth::SynthConfig config;
-  config.scene = synth::SceneKind::kRoom;
-  config.frames = opt.demo_frames;
-  config.overwrite = true;
-  std::cerr << "synthesizing the demo room scan (" << config.frames << " frames, " << config.width
-            << "x" << config.height << ") into " << opt.demo_dir << " ...\n";
-  auto summary = synth::synthesize(config, opt.demo_dir);
-  if (!summary) return summary.error();
-  return opt.demo_dir;
-}
-
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v.empty() ? 0.0 : v[v.size() / 2];
@@ -139,7 +119,7 @@ int main(int argc, char** argv) {
 
   fs::path path = opt.sequence;
   if (opt.sequence.empty()) {
-    auto demo = ensure_demo(opt);
+    auto demo = tools::ensure_demo_sequence(opt.demo_dir, opt.demo_frames);
     if (!demo) {
       std::cerr << "error: " << demo.error().describe() << "\n";
       return 1;

@@ -22,4 +22,8 @@ std::string format_tum_line(const StampedPose& pose);
 Status write_trajectory(const std::filesystem::path& path, const Trajectory& trajectory,
                         const std::string& header_comment = "");
 
+/// The pose whose timestamp is nearest t (seconds), when it lies within max_difference; else
+/// nullptr. `trajectory` must be sorted by time (read_trajectory guarantees it).
+const StampedPose* find_pose(const Trajectory& trajectory, double t, double max_difference = 0.02);
+
 }  // namespace imufusion

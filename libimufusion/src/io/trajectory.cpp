@@ -1,5 +1,6 @@
 #include "imufusion/trajectory.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -86,6 +87,17 @@ Status write_trajectory(const std::filesystem::path& path, const Trajectory& tra
   content += "# timestamp tx ty tz qx qy qz qw\n";
   for (const StampedPose& pose : trajectory) content += format_tum_line(pose) + "\n";
   return io::write_text_atomically(path, content);
+}
+
+const StampedPose* find_pose(const Trajectory& trajectory, double t, double max_difference) {
+  auto it = std::lower_bound(trajectory.begin(), trajectory.end(), t,
+                             [](const StampedPose& p, double x) { return p.timestamp < x; });
+  const StampedPose* best = nullptr;
+  for (auto c : {it, it == trajectory.begin() ? it : it - 1}) {
+    if (c == trajectory.end()) continue;
+    if (best == nullptr || std::abs(c->timestamp - t) < std::abs(best->timestamp - t)) best = &*c;
+  }
+  return best != nullptr && std::abs(best->timestamp - t) <= max_difference ? best : nullptr;
 }
 
 }  // namespace imufusion

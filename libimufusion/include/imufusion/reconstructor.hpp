@@ -1,0 +1,149 @@
+#pragma once
+// The scanner as one object: per depth frame, IMU-seeded frame-to-model ICP, the tracking state
+// machine (tracking.hpp), fusion into the sparse TSDF volume and the raycast of the model that
+// the next frame is aligned to (Niessner, Dai and Fisher, EG 2014, Figure 2).
+//
+// Per frame t (track_and_fuse):
+//   1. depth preprocessing and pyramid (GPU);
+//   2. dIMU = InertialEstimate(t-1, t) from the gyro (identity without IMU data); seed
+//      T_world_t = T_world_{t-1} * dIMU;
+//   3. ICP of the frame against the model raycast from T_world_{t-1} (GPU association and
+//      reduction, host Gauss-Newton), capped at icp.max_total_iterations Gauss-Newton steps
+//      (tracking.recovery_icp_iterations while lost or recovering);
+//   4. the state machine takes the ICP pose if ICP is reliable, else the dead-reckoned seed,
+//      and decides whether the frame is fused;
+//   5. fusion (GPU) when decided, then the raycast from the frame's pose (GPU) for frame t+1.
+// The first frame defines the world (config.initial_pose) and is fused. While lost nothing is
+// fused, and ICP keeps trying against the model raycast from the dead-reckoned pose: recovery
+// is ICP converging reliably onto the already scanned model.
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "imufusion/device.hpp"
+#include "imufusion/fusion.hpp"
+#include "imufusion/icp.hpp"
+#include "imufusion/inertial.hpp"
+#include "imufusion/mesh.hpp"
+#include "imufusion/preprocess.hpp"
+#include "imufusion/result.hpp"
+#include "imufusion/tracking.hpp"
+#include "imufusion/types.hpp"
+#include "imufusion/volume.hpp"
+
+namespace imufusion {
+
+struct ReconstructorConfig {
+  Intrinsics intrinsics;  // of the depth camera; frames must have its size
+  PreprocessConfig preprocess;
+  IcpConfig icp;          // max_total_iterations: the per-frame cap while tracking
+  VolumeConfig volume;
+  TrackingConfig tracking;
+  /// false: the baseline without inertial data, dIMU = identity (samples passed are ignored).
+  bool use_imu = true;
+  InertialConfig inertial;
+  DeviceOptions device;
+  /// Axial depth noise of the sensor, sigma(z) = a + b (z - z0)^2 metres (Kinect-like default:
+  /// Nguyen, Izadi and Lovell 2012, also imufusion's synthetic sensor). ICP's residual test
+  /// accepts r / sum(w) up to sigma_cur^2 + sigma_model^2 <= 2 mean sigma(z)^2 over the frame,
+  /// when that is above icp.reliability.max_residual_per_weight: a far scene is noisier, not
+  /// misaligned.
+  double depth_noise_a = 0.0012, depth_noise_b = 0.0019, depth_noise_z0 = 0.4;
+  /// Convergence (per-step rotation, rad, and translation, m) that counts while lost or
+  /// recovering: an update below it means ICP has settled onto the model.
+  double recovery_converged_rotation = 1e-4;
+  double recovery_converged_translation = 1e-4;
+  /// T_world_camera of the first frame (metres).
+  Eigen::Isometry3d initial_pose = Eigen::Isometry3d::Identity();
+
+  /// Fails naming the first setting out of range.
+  Status validate() const;
+};
+
+/// Wall-clock milliseconds of a frame's stages (host + GPU), and the GPU time of each kernel
+/// where the device has timestamps.
+struct FrameTimings {
+  double preprocess_ms = 0;
+  double icp_ms = 0;
+  double integrate_ms = 0;
+  double raycast_ms = 0;
+  double total_ms = 0;
+  std::vector<KernelTiming> kernels;
+};
+
+struct FrameResult {
+  std::size_t index = 0;  // 0 for the first frame since create() or reset()
+  double timestamp = 0;   // seconds
+  Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
+  TrackingStatus status = TrackingStatus::kTracking;
+  PoseSource source = PoseSource::kInitial;
+  bool fused = false;
+  bool recovered = false;  // this frame ended a loss
+  /// ICP of this frame against the model (not run for the first frame or known poses).
+  bool icp_ran = false;
+  IcpResult icp;
+  /// The IMU's prediction dIMU of the motion since the previous frame (identity when none).
+  MotionPrediction imu;
+  InertialStatus inertial;
+  IntegrationStats integration;  // when fused
+  FrameTimings timings;
+};
+
+class Reconstructor {
+ public:
+  static Result<Reconstructor> create(const ReconstructorConfig& config);
+  ~Reconstructor();
+  Reconstructor(Reconstructor&&) noexcept;
+  Reconstructor& operator=(Reconstructor&&) noexcept;
+
+  /// Tracks one depth frame (timestamp in seconds, strictly increasing; `color` registered to the
+  /// depth image, or null) and fuses it when tracking is reliable. `imu` holds the samples that
+  /// arrived since the previous call, oldest first (they may reach past or fall short of the
+  /// frame; see inertial.hpp). Errors (a frame of the wrong size, a non-increasing timestamp,
+  /// NaN or out-of-order IMU samples, a lost device) change nothing; poor tracking is not an
+  /// error but a status in the result.
+  Result<FrameResult> track_and_fuse(double timestamp, const DepthImage& depth,
+                                     const ColorImage* color = nullptr,
+                                     std::span<const ImuSample> imu = {});
+  /// Fuses a frame at a known pose (ground truth or external tracking): no ICP, pose source
+  /// `known`. IMU samples still feed the inertial estimators.
+  Result<FrameResult> fuse_with_pose(double timestamp, const DepthImage& depth,
+                                     const ColorImage* color,
+                                     const Eigen::Isometry3d& T_world_camera,
+                                     std::span<const ImuSample> imu = {});
+
+  /// Marching cubes over the allocated blocks (welded vertices, normals, colours).
+  Result<Mesh> extract_mesh(const MeshOptions& options = {}) const;
+  /// The model seen from a pose (default: the depth camera's intrinsics and depth range).
+  Result<RaycastImages> raycast(const Eigen::Isometry3d& T_world_camera,
+                                std::optional<Intrinsics> intrinsics = std::nullopt,
+                                std::optional<std::pair<float, float>> depth_range = std::nullopt);
+  Result<HostVolume> snapshot() const;
+  /// Empties the volume and forgets the trajectory; the next frame starts a new scan. The IMU
+  /// calibration estimates (gyro bias, mounting rotation) are kept.
+  Status reset();
+
+  /// One pose per frame since create() or reset().
+  const Trajectory& trajectory() const;
+  const ReconstructorConfig& config() const;
+  const DeviceInfo& device() const;
+  std::uint32_t allocated_blocks() const;
+  std::uint64_t memory_bytes() const;
+  std::uint32_t validation_error_count() const;
+
+ private:
+  struct Impl;
+  explicit Reconstructor(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace imufusion

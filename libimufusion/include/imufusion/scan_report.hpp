@@ -1,0 +1,43 @@
+#pragma once
+// What a scan reports about itself: frames.csv (one row per frame) and the summary figures
+// (lost frames, recoveries, ICP iterations, frame rate) that imufusion-scan and the benchmarks
+// print and store.
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "imufusion/reconstructor.hpp"
+#include "imufusion/result.hpp"
+
+namespace imufusion {
+
+/// The header of frames.csv. Columns: timestamp (s), status, pose_source, icp_iterations
+/// (Gauss-Newton steps run for the frame, all levels), residual (r, m^2), inliers (n),
+/// weight_sum, condition (kappa), fused (0/1), ms (wall time of the frame), then icp_reliable,
+/// icp_reason, imu_rotation (0/1: the seed's rotation came from the gyro), imu_coverage,
+/// gyro_bias_x/y/z (rad/s), R_camera_imu_estimated, R_camera_imu_sigma_deg, blocks
+/// (allocated after the frame), tx ty tz qx qy qz qw (T_world_camera).
+std::string frames_csv_header();
+/// One row of frames.csv (no newline). Quality columns are empty when ICP did not run.
+std::string frames_csv_row(const FrameResult& frame, std::uint32_t allocated_blocks);
+
+struct ScanStatistics {
+  std::size_t frames = 0;
+  std::size_t fused = 0;
+  std::size_t lost = 0;        // frames with status lost
+  std::size_t recovering = 0;  // frames with status recovering
+  std::size_t recoveries = 0;  // losses that ended in tracking again
+  std::size_t dead_reckoned = 0;
+  double mean_icp_iterations = 0;    // over frames where ICP ran
+  double median_icp_iterations = 0;  // over frames where ICP ran
+  double mean_frame_ms = 0;
+  double median_frame_ms = 0;
+  double fps = 0;  // frames / total frame time
+  /// Frames from the end of each loss (first lost frame) to the frame that resumed tracking.
+  std::vector<std::size_t> recovery_frames;
+};
+
+ScanStatistics summarize_scan(const std::vector<FrameResult>& frames);
+
+}  // namespace imufusion

@@ -1,0 +1,36 @@
+#include <cmath>
+#include <string>
+
+#include "imufusion/reconstructor.hpp"
+
+namespace imufusion {
+
+Status ReconstructorConfig::validate() const {
+  auto bad = [](const std::string& message) {
+    return make_error(ErrorCode::kInvalidArgument, "reconstructor: " + message);
+  };
+  const Intrinsics& k = intrinsics;
+  if (k.width <= 0 || k.height <= 0)
+    return bad("intrinsics size " + std::to_string(k.width) + "x" + std::to_string(k.height) + " is empty");
+  if (!(k.fx > 0 && k.fy > 0 && std::isfinite(k.cx) && std::isfinite(k.cy)))
+    return bad("intrinsics need positive focal lengths and a finite principal point");
+  IMUFUSION_RETURN_IF_ERROR(preprocess.validate());
+  IMUFUSION_RETURN_IF_ERROR(icp.validate(preprocess.levels));
+  if (tracking.recovery_frames < 1)
+    return bad("tracking.recovery_frames must be at least 1, got " + std::to_string(tracking.recovery_frames));
+  if (tracking.recovery_icp_iterations < 1 || tracking.recovery_icp_iterations > 100)
+    return bad("tracking.recovery_icp_iterations must be 1..100, got " +
+               std::to_string(tracking.recovery_icp_iterations));
+  if (use_imu) IMUFUSION_RETURN_IF_ERROR(inertial.validate());
+  if (!(depth_noise_a >= 0 && depth_noise_b >= 0 && std::isfinite(depth_noise_a + depth_noise_b + depth_noise_z0)))
+    return bad("depth noise coefficients must be finite and non-negative");
+  if (!(recovery_converged_rotation > 0 && recovery_converged_translation > 0))
+    return bad("recovery convergence thresholds must be positive");
+  const Eigen::Matrix4d m = initial_pose.matrix();
+  if (!m.allFinite() ||
+      (initial_pose.linear().transpose() * initial_pose.linear() - Eigen::Matrix3d::Identity()).norm() > 1e-6)
+    return bad("initial_pose is not a finite rigid transform");
+  return {};
+}
+
+}  // namespace imufusion

@@ -1,0 +1,100 @@
+#include "imufusion/scan_report.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <string>
+
+namespace imufusion {
+namespace {
+
+std::string format(const char* fmt, double value) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, fmt, value);
+  return buffer;
+}
+
+// The reason may hold commas; frames.csv keeps one field per column.
+std::string csv_field(std::string text) {
+  std::replace(text.begin(), text.end(), ',', ';');
+  std::replace(text.begin(), text.end(), '\n', ' ');
+  return text;
+}
+
+double median_of(std::vector<double> values) {
+  if (values.empty()) return 0;
+  std::sort(values.begin(), values.end());
+  const std::size_t n = values.size();
+  return n % 2 == 1 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+}
+
+}  // namespace
+
+std::string frames_csv_header() {
+  return "timestamp,status,pose_source,icp_iterations,residual,inliers,weight_sum,condition,fused,ms,"
+         "icp_reliable,icp_reason,imu_rotation,imu_coverage,gyro_bias_x,gyro_bias_y,gyro_bias_z,"
+         "R_camera_imu_estimated,R_camera_imu_sigma_deg,blocks,tx,ty,tz,qx,qy,qz,qw";
+}
+
+std::string frames_csv_row(const FrameResult& f, std::uint32_t allocated_blocks) {
+  std::string row = format("%.6f", f.timestamp);
+  row += std::string(",") + to_string(f.status) + "," + to_string(f.source) + ",";
+  if (f.icp_ran) {
+    const IcpQuality& q = f.icp.quality;
+    row += std::to_string(q.iterations) + "," + format("%.6g", q.residual) + "," + std::to_string(q.inliers) +
+           "," + format("%.6g", q.weight_sum) + "," + format("%.6g", q.condition);
+  } else {
+    row += ",,,,";
+  }
+  row += std::string(",") + (f.fused ? "1" : "0") + "," + format("%.2f", f.timings.total_ms) + ",";
+  row += f.icp_ran ? std::string(f.icp.reliable ? "1" : "0") + "," + csv_field(f.icp.reason) : std::string(",");
+  row += std::string(",") + (f.imu.rotation_from_imu ? "1" : "0") + "," + format("%.3f", f.imu.covered_fraction);
+  for (int i = 0; i < 3; ++i) row += "," + format("%.6g", f.inertial.gyro_bias[i]);
+  row += std::string(",") + (f.inertial.R_camera_imu_estimated ? "1" : "0") + "," +
+         format("%.4g", f.inertial.R_camera_imu_sigma_deg) + "," + std::to_string(allocated_blocks);
+  const Eigen::Vector3d t = f.T_world_camera.translation();
+  const Eigen::Quaterniond q(f.T_world_camera.linear());
+  for (double v : {t.x(), t.y(), t.z()}) row += "," + format("%.6f", v);
+  for (double v : {q.x(), q.y(), q.z(), q.w()}) row += "," + format("%.9f", v);
+  return row;
+}
+
+ScanStatistics summarize_scan(const std::vector<FrameResult>& frames) {
+  ScanStatistics s;
+  s.frames = frames.size();
+  std::vector<double> iterations, ms;
+  double total_ms = 0;
+  std::size_t loss_start = 0;
+  bool in_loss = false;
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    const FrameResult& f = frames[i];
+    if (f.fused) ++s.fused;
+    if (f.status == TrackingStatus::kLost) ++s.lost;
+    if (f.status == TrackingStatus::kRecovering) ++s.recovering;
+    if (f.source == PoseSource::kDeadReckoning) ++s.dead_reckoned;
+    if (f.icp_ran) iterations.push_back(f.icp.quality.iterations);
+    ms.push_back(f.timings.total_ms);
+    total_ms += f.timings.total_ms;
+    if (f.status != TrackingStatus::kTracking && !in_loss) {
+      in_loss = true;
+      loss_start = i;
+    }
+    if (f.recovered) {
+      ++s.recoveries;
+      if (in_loss) s.recovery_frames.push_back(i - loss_start);
+      in_loss = false;
+    }
+  }
+  if (!iterations.empty()) {
+    for (double v : iterations) s.mean_icp_iterations += v;
+    s.mean_icp_iterations /= static_cast<double>(iterations.size());
+    s.median_icp_iterations = median_of(iterations);
+  }
+  if (!ms.empty()) {
+    s.mean_frame_ms = total_ms / static_cast<double>(ms.size());
+    s.median_frame_ms = median_of(ms);
+  }
+  s.fps = total_ms > 0 ? 1000.0 * static_cast<double>(frames.size()) / total_ms : 0;
+  return s;
+}
+
+}  // namespace imufusion

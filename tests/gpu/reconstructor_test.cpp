@@ -1,0 +1,264 @@
+// The Reconstructor on small synthetic sequences (160x120): IMU-seeded tracking against the
+// model, the baseline without IMU, dead reckoning through frames without depth and recovery
+// onto the scanned model, known poses, reset, and errors that change nothing.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include "gpu_test_env.hpp"
+#include "imufusion/eval.hpp"
+#include "imufusion/reconstructor.hpp"
+#include "imufusion/scan_report.hpp"
+#include "imufusion/sequence.hpp"
+#include "imufusion/synth.hpp"
+#include "imufusion/trajectory.hpp"
+
+namespace imufusion {
+namespace {
+
+namespace fs = std::filesystem;
+
+double rotation_deg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return Eigen::AngleAxisd(a.linear().transpose() * b.linear()).angle() * 180.0 / M_PI;
+}
+
+class ReconstructorTest : public test::GpuTest {
+ protected:
+  static void SetUpTestSuite() {
+    std::random_device random;
+    root_ = new fs::path(fs::temp_directory_path() / ("imufusion_reconstructor_" + std::to_string(random())));
+    synth::SynthConfig config;
+    config.scene = synth::SceneKind::kRoom;
+    config.seed = 11;
+    config.width = 160;
+    config.height = 120;
+    config.frames = 36;
+    config.color = true;
+    synth_ok_ = synth::synthesize(config, *root_ / "room").ok();
+  }
+  static void TearDownTestSuite() {
+    std::error_code ec;
+    fs::remove_all(*root_, ec);
+    delete root_;
+  }
+
+  void SetUp() override {
+    test::GpuTest::SetUp();
+    if (IsSkipped() || HasFatalFailure()) return;
+    ASSERT_TRUE(synth_ok_);
+    auto reader = SequenceReader::open(*root_ / "room");
+    ASSERT_TRUE(reader.ok()) << reader.error().describe();
+    reader_.emplace(std::move(*reader));
+    for (std::size_t i = 0; i < reader_->frame_count(); ++i) {
+      auto frame = reader_->next();
+      ASSERT_TRUE(frame.ok()) << frame.error().describe();
+      frames_.push_back(std::move(*frame));
+    }
+  }
+
+  ReconstructorConfig config(bool imu, int iterations) const {
+    ReconstructorConfig c;
+    c.intrinsics = *reader_->intrinsics();
+    c.intrinsics.width = 160;
+    c.intrinsics.height = 120;
+    c.use_imu = imu;
+    c.icp.max_total_iterations = iterations;
+    c.inertial.T_camera_imu = reader_->T_camera_imu();
+    c.device.selector = context_->info().name;
+    c.device.validation = true;
+    c.volume.block_capacity = 1u << 13;
+    c.volume.hash_slots = 1u << 15;
+    return c;
+  }
+
+  Reconstructor make(const ReconstructorConfig& c) {
+    auto rec = Reconstructor::create(c);
+    EXPECT_TRUE(rec.ok()) << rec.error().describe();
+    return std::move(*rec);
+  }
+
+  double ate(const Trajectory& estimate) const {
+    auto result = evaluate_ate(reader_->ground_truth(), estimate);
+    EXPECT_TRUE(result.ok()) << result.error().describe();
+    return result.ok() ? result->stats.rmse : std::numeric_limits<double>::infinity();
+  }
+
+  static fs::path* root_;
+  static bool synth_ok_;
+  std::optional<SequenceReader> reader_;
+  std::vector<Frame> frames_;
+};
+
+fs::path* ReconstructorTest::root_ = nullptr;
+bool ReconstructorTest::synth_ok_ = false;
+
+TEST_F(ReconstructorTest, TracksTheRoomWithTheImuInTwoIterationsPerFrame) {
+  Reconstructor rec = make(config(true, 2));
+  std::vector<FrameResult> results;
+  for (const Frame& f : frames_) {
+    auto r = rec.track_and_fuse(f.timestamp, f.depth, f.color ? &*f.color : nullptr, f.imu);
+    ASSERT_TRUE(r.ok()) << r.error().describe();
+    results.push_back(*r);
+  }
+  EXPECT_EQ(results.front().source, PoseSource::kInitial);
+  for (std::size_t i = 1; i < results.size(); ++i) {
+    EXPECT_EQ(results[i].status, TrackingStatus::kTracking) << "frame " << i << ": " << results[i].icp.reason;
+    EXPECT_TRUE(results[i].fused);
+    EXPECT_TRUE(results[i].imu.rotation_from_imu) << "frame " << i;
+    EXPECT_LE(results[i].icp.quality.iterations, 2);
+  }
+  EXPECT_EQ(rec.trajectory().size(), frames_.size());
+  EXPECT_LT(ate(rec.trajectory()), 0.01);
+  EXPECT_GT(rec.allocated_blocks(), 0u);
+  auto mesh = rec.extract_mesh();
+  ASSERT_TRUE(mesh.ok()) << mesh.error().describe();
+  EXPECT_GT(mesh->triangles.size(), 1000u);
+  EXPECT_EQ(rec.validation_error_count(), 0u);
+}
+
+TEST_F(ReconstructorTest, BaselineWithoutImuTracksWithMoreIterations) {
+  Reconstructor rec = make(config(false, 30));
+  std::vector<FrameResult> results;
+  for (const Frame& f : frames_) {
+    auto r = rec.track_and_fuse(f.timestamp, f.depth, nullptr, f.imu);
+    ASSERT_TRUE(r.ok()) << r.error().describe();
+    EXPECT_FALSE(r->imu.rotation_from_imu);
+    results.push_back(*r);
+  }
+  const ScanStatistics stats = summarize_scan(results);
+  EXPECT_EQ(stats.lost, 0u);
+  EXPECT_GT(stats.median_icp_iterations, 2.0);
+  EXPECT_LT(ate(rec.trajectory()), 0.01);
+}
+
+TEST_F(ReconstructorTest, DeadReckonsThroughBlankFramesAndRecoversOntoTheModel) {
+  Reconstructor rec = make(config(true, 2));
+  const std::size_t blank_begin = 14, blank_end = 20;  // frames without any depth
+  std::vector<FrameResult> results;
+  for (std::size_t i = 0; i < frames_.size(); ++i) {
+    const Frame& f = frames_[i];
+    DepthImage depth = f.depth;
+    if (i >= blank_begin && i < blank_end) std::fill(depth.data.begin(), depth.data.end(), 0);
+    auto r = rec.track_and_fuse(f.timestamp, depth, nullptr, f.imu);
+    ASSERT_TRUE(r.ok()) << r.error().describe();
+    results.push_back(*r);
+  }
+  for (std::size_t i = blank_begin; i < blank_end; ++i) {
+    EXPECT_EQ(results[i].status, TrackingStatus::kLost) << "frame " << i;
+    EXPECT_EQ(results[i].source, PoseSource::kDeadReckoning) << "frame " << i;
+    EXPECT_FALSE(results[i].fused) << "frame " << i;
+    // The gyro carries the rotation through: within a degree of the truth after 6 frames.
+    const StampedPose* truth = find_pose(reader_->ground_truth(), results[i].timestamp);
+    ASSERT_NE(truth, nullptr);
+    const Eigen::Isometry3d T0 = reader_->ground_truth().front().T_world_camera;
+    EXPECT_LT(rotation_deg(T0.inverse() * truth->T_world_camera, results[i].T_world_camera), 1.0) << "frame " << i;
+  }
+  // Depth returns at blank_end: ICP must first settle onto the model from the dead-reckoned
+  // seed (a frame or two), then count recovery_frames reliable frames before fusing again.
+  const auto recovery = static_cast<std::size_t>(rec.config().tracking.recovery_frames);
+  std::size_t back = blank_end;
+  while (back < results.size() && !results[back].recovered) {
+    EXPECT_NE(results[back].status, TrackingStatus::kTracking) << "frame " << back;
+    EXPECT_FALSE(results[back].fused) << "frame " << back;
+    ++back;
+  }
+  ASSERT_LT(back, results.size()) << "tracking never resumed";
+  EXPECT_GE(back, blank_end + recovery - 1);
+  EXPECT_LE(back, blank_end + recovery + 2) << "recovery took too long";
+  for (std::size_t i = back - (recovery - 1); i < back; ++i) {
+    EXPECT_EQ(results[i].status, TrackingStatus::kRecovering) << "frame " << i;
+    EXPECT_EQ(results[i].source, PoseSource::kIcp) << "frame " << i;
+  }
+  for (std::size_t i = back; i < results.size(); ++i) {
+    EXPECT_EQ(results[i].status, TrackingStatus::kTracking) << "frame " << i;
+    EXPECT_TRUE(results[i].fused) << "frame " << i;
+  }
+  const ScanStatistics stats = summarize_scan(results);
+  EXPECT_EQ(stats.recoveries, 1u);
+  ASSERT_EQ(stats.recovery_frames.size(), 1u);
+  EXPECT_EQ(stats.recovery_frames[0], back - blank_begin);
+  EXPECT_LT(ate(rec.trajectory()), 0.015);
+}
+
+TEST_F(ReconstructorTest, KnownPosesAreFusedWithoutTracking) {
+  Reconstructor rec = make(config(true, 2));
+  for (const Frame& f : frames_) {
+    const StampedPose* pose = find_pose(reader_->ground_truth(), f.timestamp);
+    ASSERT_NE(pose, nullptr);
+    auto r = rec.fuse_with_pose(f.timestamp, f.depth, nullptr, pose->T_world_camera, f.imu);
+    ASSERT_TRUE(r.ok()) << r.error().describe();
+    EXPECT_EQ(r->source, PoseSource::kKnown);
+    EXPECT_TRUE(r->fused);
+    EXPECT_FALSE(r->icp_ran);
+    EXPECT_TRUE(r->T_world_camera.isApprox(pose->T_world_camera));
+  }
+  EXPECT_LT(ate(rec.trajectory()), 1e-9);
+}
+
+TEST_F(ReconstructorTest, BadFramesAreErrorsThatChangeNothing) {
+  Reconstructor rec = make(config(true, 2));
+  ASSERT_TRUE(rec.track_and_fuse(frames_[0].timestamp, frames_[0].depth, nullptr, frames_[0].imu).ok());
+  const std::uint32_t blocks = rec.allocated_blocks();
+
+  DepthImage small = frames_[1].depth;
+  small.width = 80;
+  small.data.resize(80 * 120);
+  auto wrong_size = rec.track_and_fuse(frames_[1].timestamp, small);
+  ASSERT_FALSE(wrong_size.ok());
+  EXPECT_NE(wrong_size.error().message.find("80x120"), std::string::npos) << wrong_size.error().message;
+
+  auto same_time = rec.track_and_fuse(frames_[0].timestamp, frames_[1].depth);
+  ASSERT_FALSE(same_time.ok());
+  EXPECT_NE(same_time.error().message.find("does not follow"), std::string::npos) << same_time.error().message;
+
+  std::vector<ImuSample> bad = frames_[1].imu;
+  ASSERT_FALSE(bad.empty());
+  bad.back().gyro.y() = std::numeric_limits<double>::quiet_NaN();
+  auto nan_imu = rec.track_and_fuse(frames_[1].timestamp, frames_[1].depth, nullptr, bad);
+  ASSERT_FALSE(nan_imu.ok());
+  EXPECT_NE(nan_imu.error().message.find("nan"), std::string::npos) << nan_imu.error().message;
+
+  EXPECT_EQ(rec.trajectory().size(), 1u);
+  EXPECT_EQ(rec.allocated_blocks(), blocks);
+  // The same frame with good samples is then tracked as if nothing had happened.
+  auto good = rec.track_and_fuse(frames_[1].timestamp, frames_[1].depth, nullptr, frames_[1].imu);
+  ASSERT_TRUE(good.ok()) << good.error().describe();
+  EXPECT_EQ(good->status, TrackingStatus::kTracking);
+  EXPECT_TRUE(good->imu.rotation_from_imu);
+}
+
+TEST_F(ReconstructorTest, ResetStartsANewScan) {
+  Reconstructor rec = make(config(true, 2));
+  for (std::size_t i = 0; i < 4; ++i)
+    ASSERT_TRUE(rec.track_and_fuse(frames_[i].timestamp, frames_[i].depth, nullptr, frames_[i].imu).ok());
+  ASSERT_TRUE(rec.reset().ok());
+  EXPECT_TRUE(rec.trajectory().empty());
+  EXPECT_EQ(rec.allocated_blocks(), 0u);
+  auto r = rec.track_and_fuse(frames_[4].timestamp, frames_[4].depth, nullptr, frames_[4].imu);
+  ASSERT_TRUE(r.ok()) << r.error().describe();
+  EXPECT_EQ(r->source, PoseSource::kInitial);
+  EXPECT_EQ(r->index, 0u);
+  EXPECT_TRUE(r->T_world_camera.isApprox(Eigen::Isometry3d::Identity()));
+}
+
+TEST(ReconstructorConfig, RejectsSettingsOutOfRange) {
+  ReconstructorConfig c;
+  EXPECT_FALSE(c.validate().ok());  // no intrinsics
+  c.intrinsics = synth::default_intrinsics(160, 120);
+  EXPECT_TRUE(c.validate().ok());
+  c.tracking.recovery_frames = 0;
+  auto s = c.validate();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("recovery_frames"), std::string::npos);
+  c.tracking.recovery_frames = 3;
+  c.initial_pose.translation().x() = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(c.validate().ok());
+}
+
+}  // namespace
+}  // namespace imufusion
