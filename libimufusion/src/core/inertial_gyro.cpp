@@ -11,14 +11,6 @@ namespace imufusion::inertial {
 
 namespace {
 
-Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d S;
-  S << 0, -v.z(), v.y(),  //
-      v.z(), 0, -v.x(),   //
-      -v.y(), v.x(), 0;
-  return S;
-}
-
 std::string format_time(double t) {
   std::ostringstream os;
   os.precision(6);
@@ -27,6 +19,14 @@ std::string format_time(double t) {
 }
 
 }  // namespace
+
+Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d S;
+  S << 0, -v.z(), v.y(),  //
+      v.z(), 0, -v.x(),   //
+      -v.y(), v.x(), 0;
+  return S;
+}
 
 Eigen::Matrix3d exp_so3(const Eigen::Vector3d& phi) {
   const double angle = phi.norm();

@@ -17,6 +17,8 @@
 
 namespace imufusion::inertial {
 
+/// [v]x: the cross-product matrix, [v]x w = v x w.
+Eigen::Matrix3d skew(const Eigen::Vector3d& v);
 /// Exp of a rotation vector (rad).
 Eigen::Matrix3d exp_so3(const Eigen::Vector3d& phi);
 /// Log of a rotation: the rotation vector (rad), angle in [0, pi].
@@ -164,6 +166,10 @@ class VelocityFilter {
   void reset();
 
  private:
+  /// Accumulates gravity from a reliable pair (world displacement of the IMU point, m).
+  void observe_gravity(double dt, const Eigen::Vector3d& displacement,
+                       const ImuIntegration* integration);
+
   TranslationModel model_;
   double position_sigma_, cv_noise_, accel_noise_, max_sigma_;
   double gravity_min_time_, gravity_tau_;
@@ -172,6 +178,11 @@ class VelocityFilter {
   bool initialized_ = false;
   Eigen::Vector3d gravity_sum_ = Eigen::Vector3d::Zero();  // forgetting sum of g * dt, m/s
   double gravity_time_ = 0;                                 // forgetting sum of dt, s
+  // The previous reliable pair, for gravity: u (m/s), delta_v (m/s), dt (s).
+  Eigen::Vector3d previous_u_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d previous_delta_v_ = Eigen::Vector3d::Zero();
+  double previous_dt_ = 0;
+  bool has_previous_pair_ = false;
 };
 
 }  // namespace imufusion::inertial

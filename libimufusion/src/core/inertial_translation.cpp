@@ -1,8 +1,7 @@
 // Translation between frames: a per-axis Kalman filter on the velocity of the IMU point in the
 // world frame, measured by tracked positions and propagated either as constant (a random walk)
 // or with the accelerometer (specific force rotated into the world plus gravity). Gravity in the
-// world frame comes from the same pairs: over a tracked pair, g dt = v_b - v_a - int R f dt;
-// summed over many pairs the velocity terms telescope, leaving the gravity vector.
+// world frame comes from consecutive tracked pairs and the specific force between them.
 
 #include <cmath>
 
@@ -65,6 +64,7 @@ void VelocityFilter::step(double dt, const Eigen::Vector3d& p_a, const Eigen::Ve
       v_ = mean_velocity;
       P_ = measurement_var;
       initialized_ = true;
+      observe_gravity(dt, p_b - p_a, integration);
     }
     return;
   }
@@ -73,7 +73,10 @@ void VelocityFilter::step(double dt, const Eigen::Vector3d& p_a, const Eigen::Ve
   const Eigen::Vector3d v_a = v_;
   v_ = prop.velocity_b;
   P_ += q * q * dt;
-  if (!reliable) return;
+  if (!reliable) {
+    has_previous_pair_ = false;
+    return;
+  }
 
   // The end velocity implied by the tracked displacement: with the accelerometer, the
   // displacement's shape within the pair is known (v_b = mean + dv - dp / dt); without it, the
@@ -86,11 +89,30 @@ void VelocityFilter::step(double dt, const Eigen::Vector3d& p_a, const Eigen::Ve
   v_ += K * (z - v_);
   P_ *= 1.0 - K;
 
-  if (integration != nullptr && integration->complete) {
-    const double decay = std::exp(-dt / gravity_tau_);
-    gravity_sum_ = decay * gravity_sum_ + (v_ - v_a - integration->delta_v);
-    gravity_time_ = decay * gravity_time_ + dt;
+  observe_gravity(dt, p_b - p_a, integration);
+}
+
+void VelocityFilter::observe_gravity(double dt, const Eigen::Vector3d& displacement,
+                                     const ImuIntegration* integration) {
+  if (integration == nullptr || !integration->complete) {
+    has_previous_pair_ = false;
+    return;
   }
+  // Over two consecutive tracked pairs (dt1, dt2), with u = (displacement - delta_p) / dt the
+  // mean velocity less the specific force's share: g (dt1 + dt2) / 2 = u2 - u1 - delta_v1.
+  // Exact for any motion; summed over many pairs the u terms telescope, so tracking noise
+  // enters only through the first and last pair.
+  const Eigen::Vector3d u = (displacement - integration->delta_p) / dt;
+  if (has_previous_pair_) {
+    const double weight = 0.5 * (previous_dt_ + dt);
+    const double decay = std::exp(-weight / gravity_tau_);
+    gravity_sum_ = decay * gravity_sum_ + (u - previous_u_ - previous_delta_v_);
+    gravity_time_ = decay * gravity_time_ + weight;
+  }
+  previous_u_ = u;
+  previous_delta_v_ = integration->delta_v;
+  previous_dt_ = dt;
+  has_previous_pair_ = true;
 }
 
 Eigen::Vector3d VelocityFilter::gravity() const {
@@ -102,6 +124,7 @@ void VelocityFilter::reset_velocity() {
   v_.setZero();
   P_ = 0;
   initialized_ = false;
+  has_previous_pair_ = false;
 }
 
 void VelocityFilter::reset() {
