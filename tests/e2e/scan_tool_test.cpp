@@ -1,0 +1,226 @@
+// Runs the built imufusion-scan on small synthetic sequences: its outputs (trajectory, frames.csv,
+// mesh, preview, summary.json with ATE), the wall scan where depth alone cannot track (IMU:
+// every frame of the stretch reported lost and left unfused), known poses, the demo, and bad input.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "imufusion/mesh.hpp"
+#include "imufusion/synth.hpp"
+#include "imufusion/trajectory.hpp"
+#include "tool_runner.hpp"
+
+namespace imufusion {
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kTool = fs::path(IMUFUSION_TEST_BINARY_DIR) / "tools" / "imufusion-scan";
+
+using Row = std::map<std::string, std::string>;
+
+std::vector<Row> read_csv(const fs::path& path) {
+  std::istringstream in(test::read_text(path));
+  std::string line;
+  std::vector<std::string> header;
+  std::vector<Row> rows;
+  auto split = [](const std::string& text) {
+    std::vector<std::string> fields;
+    std::stringstream s(text);
+    std::string field;
+    while (std::getline(s, field, ',')) fields.push_back(field);
+    if (!text.empty() && text.back() == ',') fields.emplace_back();
+    return fields;
+  };
+  if (!std::getline(in, line)) return rows;
+  header = split(line);
+  while (std::getline(in, line)) {
+    const auto fields = split(line);
+    Row row;
+    for (std::size_t i = 0; i < header.size() && i < fields.size(); ++i) row[header[i]] = fields[i];
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+nlohmann::json read_json(const fs::path& path) { return nlohmann::json::parse(test::read_text(path)); }
+
+fs::path synthesize(const fs::path& root, const std::string& name, synth::SceneKind scene, int frames,
+                    std::uint64_t seed) {
+  synth::SynthConfig config;
+  config.scene = scene;
+  config.seed = seed;
+  config.width = 160;
+  config.height = 120;
+  config.frames = frames;
+  const fs::path dir = root / name;
+  auto summary = synth::synthesize(config, dir);
+  EXPECT_TRUE(summary.ok()) << summary.error().describe();
+  return dir;
+}
+
+class ScanTool : public ::testing::Test {
+ protected:
+  void SetUp() override { ASSERT_TRUE(fs::exists(kTool)) << kTool << " was not built"; }
+  test::ToolRun scan(const std::string& args) { return test::run_tool(kTool, args, scratch_.path()); }
+  fs::path path(const std::string& name) const { return scratch_.path() / name; }
+
+  test::ScratchDir scratch_{"imufusion_scan_"};
+};
+
+TEST_F(ScanTool, ScansARoomWithTheImuAndWritesEveryOutput) {
+  const fs::path seq = synthesize(scratch_.path(), "room", synth::SceneKind::kRoom, 36, 21);
+  const fs::path out = path("out");
+  const auto run = scan(seq.string() + " --out " + out.string() + " --quiet");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("scanned 36 frames"), std::string::npos) << run.out;
+  for (const char* file : {"trajectory.txt", "frames.csv", "mesh.glb", "mesh.ply", "preview.png", "overview.png", "summary.json"})
+    EXPECT_TRUE(fs::exists(out / file)) << file;
+
+  const std::string header = test::read_text(out / "frames.csv").substr(0, 100);
+  EXPECT_EQ(header.rfind("timestamp,status,pose_source,icp_iterations,residual,inliers,weight_sum,condition,fused,ms", 0), 0u)
+      << header;
+  const auto rows = read_csv(out / "frames.csv");
+  ASSERT_EQ(rows.size(), 36u);
+  EXPECT_EQ(rows[0].at("pose_source"), "initial");
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    EXPECT_EQ(rows[i].at("status"), "tracking") << "frame " << i << ": " << rows[i].at("icp_reason");
+    EXPECT_EQ(rows[i].at("pose_source"), "icp");
+    EXPECT_EQ(rows[i].at("fused"), "1");
+    EXPECT_LE(std::stoi(rows[i].at("icp_iterations")), 2);
+    EXPECT_GT(std::stod(rows[i].at("inliers")), 1000);
+  }
+  auto trajectory = read_trajectory(out / "trajectory.txt");
+  ASSERT_TRUE(trajectory.ok()) << trajectory.error().describe();
+  EXPECT_EQ(trajectory->size(), 36u);
+
+  const auto summary = read_json(out / "summary.json");
+  EXPECT_EQ(summary["frames"], 36);
+  EXPECT_EQ(summary["lost_frames"], 0);
+  EXPECT_EQ(summary["settings"]["imu"], true);
+  EXPECT_EQ(summary["settings"]["camera_imu_rotation"], "given");
+  EXPECT_LE(summary["median_icp_iterations"].get<double>(), 2.0);
+  EXPECT_GT(summary["fps"].get<double>(), 0.0);
+  EXPECT_FALSE(summary["device"].get<std::string>().empty());
+  ASSERT_TRUE(summary.contains("ate")) << summary.dump();
+  EXPECT_LT(summary["ate"]["rmse"].get<double>(), 0.015);
+  auto mesh = read_mesh(out / "mesh.glb");
+  ASSERT_TRUE(mesh.ok()) << mesh.error().describe();
+  EXPECT_EQ(mesh->triangles.size(), summary["mesh_triangles"].get<std::size_t>());
+}
+
+// Facing a bare wall, ICP is degenerate: with or without the IMU those frames must be reported
+// (lost, dead-reckoned pose) and never fused.
+TEST_F(ScanTool, WallStretchIsReportedAsLostAndNotFused) {
+  const fs::path seq = synthesize(scratch_.path(), "wall", synth::SceneKind::kWall, 200, 23);
+  const synth::CameraMotion motion(synth::SceneKind::kWall, 23, synth::SynthConfig{}.start_time);
+  const synth::TimeSpan stretch = *motion.wall_stretch();
+  for (const std::string flags : {"", " --no-imu"}) {
+    const fs::path out = path(flags.empty() ? "imu" : "noimu");
+    const auto run = scan(seq.string() + flags + " --out " + out.string() + " --quiet");
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const auto rows = read_csv(out / "frames.csv");
+    ASSERT_EQ(rows.size(), 200u);
+    std::size_t in_stretch = 0;
+    for (const Row& row : rows) {
+      const double t = std::stod(row.at("timestamp"));
+      if (t >= stretch.begin && t <= stretch.end) {
+        ++in_stretch;
+        EXPECT_NE(row.at("status"), "tracking") << flags << " t=" << row.at("timestamp");
+      }
+      if (row.at("status") != "tracking") {
+        EXPECT_EQ(row.at("fused"), "0") << flags << " t=" << row.at("timestamp");
+      }
+      if (row.at("status") == "lost") {
+        EXPECT_EQ(row.at("pose_source"), "dead_reckoning") << flags << " t=" << row.at("timestamp");
+      }
+      if (row.at("pose_source") != "initial") {
+        EXPECT_EQ(row.at("imu_rotation"), flags.empty() ? "1" : "0") << flags << " t=" << row.at("timestamp");
+      }
+    }
+    EXPECT_GT(in_stretch, 50u);
+    const auto summary = read_json(out / "summary.json");
+    EXPECT_EQ(summary["settings"]["imu"], flags.empty());
+    EXPECT_GE(summary["lost_frames"].get<std::size_t>(), in_stretch);
+  }
+}
+
+TEST_F(ScanTool, KnownPosesAreFusedAsGiven) {
+  const fs::path seq = synthesize(scratch_.path(), "room", synth::SceneKind::kRoom, 12, 25);
+  const auto run = scan(seq.string() + " --poses " + (seq / "groundtruth.txt").string() + " --out " + path("known").string() + " --quiet");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto rows = read_csv(path("known") / "frames.csv");
+  ASSERT_EQ(rows.size(), 12u);
+  for (const Row& row : rows) {
+    EXPECT_EQ(row.at("pose_source"), "known");
+    EXPECT_EQ(row.at("icp_iterations"), "");
+  }
+  const auto summary = read_json(path("known") / "summary.json");
+  EXPECT_EQ(summary["settings"]["mode"], "known_poses");
+  EXPECT_LT(summary["ate"]["rmse"].get<double>(), 1e-5);
+}
+
+TEST_F(ScanTool, ScansTheEmbeddedDemoWithoutInput) {
+  const auto run = scan("--demo-dir " + path("demo").string() + " --demo-frames 4 --out " + path("out").string());
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(fs::exists(path("demo") / "depth.txt"));
+  EXPECT_EQ(read_csv(path("out") / "frames.csv").size(), 4u);
+  EXPECT_NE(run.out.find("mesh.glb"), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("preview.png"), std::string::npos) << run.out;
+}
+
+TEST_F(ScanTool, ACorruptFrameStopsTheScanAndKeepsWhatWasScanned) {
+  const fs::path seq = synthesize(scratch_.path(), "room", synth::SceneKind::kRoom, 10, 27);
+  // Truncate the 7th depth PNG (depth.txt order).
+  std::istringstream index(test::read_text(seq / "depth.txt"));
+  std::string line, name;
+  int n = 0;
+  while (std::getline(index, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    if (++n == 7) name = line.substr(line.find(' ') + 1);
+  }
+  ASSERT_FALSE(name.empty());
+  fs::resize_file(seq / name, fs::file_size(seq / name) / 2);
+  const auto run = scan(seq.string() + " --out " + path("out").string() + " --quiet");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find(name.substr(name.find('/') + 1)), std::string::npos) << run.err;
+  EXPECT_EQ(read_csv(path("out") / "frames.csv").size(), 6u);
+  auto trajectory = read_trajectory(path("out") / "trajectory.txt");
+  ASSERT_TRUE(trajectory.ok());
+  EXPECT_EQ(trajectory->size(), 6u);
+  const auto summary = read_json(path("out") / "summary.json");
+  EXPECT_NE(summary["stopped_early"].get<std::string>().find(name.substr(name.find('/') + 1)), std::string::npos);
+  EXPECT_TRUE(fs::exists(path("out") / "mesh.glb"));
+}
+
+TEST_F(ScanTool, BadInputIsRefusedWithAClearMessage) {
+  auto missing = scan(path("no_such_sequence").string() + " --out " + path("out").string());
+  EXPECT_EQ(missing.exit_code, 1);
+  EXPECT_NE(missing.err.find("no_such_sequence"), std::string::npos) << missing.err;
+  EXPECT_FALSE(fs::exists(path("out") / "summary.json"));
+
+  auto zero = scan("x --icp-iterations 0");
+  EXPECT_EQ(zero.exit_code, 2);
+  EXPECT_NE(zero.err.find("--icp-iterations"), std::string::npos) << zero.err;
+  auto voxel = scan("x --voxel-size abc");
+  EXPECT_EQ(voxel.exit_code, 2);
+  EXPECT_NE(voxel.err.find("abc"), std::string::npos) << voxel.err;
+  auto model = scan("x --translation warp");
+  EXPECT_EQ(model.exit_code, 2);
+
+  const fs::path seq = synthesize(scratch_.path(), "room", synth::SceneKind::kRoom, 4, 29);
+  auto poses = scan(seq.string() + " --poses " + path("nope.txt").string() + " --out " + path("out2").string());
+  EXPECT_EQ(poses.exit_code, 1);
+  EXPECT_NE(poses.err.find("nope.txt"), std::string::npos) << poses.err;
+}
+
+}  // namespace
+}  // namespace imufusion

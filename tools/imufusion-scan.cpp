@@ -1,0 +1,364 @@
+// imufusion-scan [INPUT] [options]
+//
+// Scans a sequence: IMU-seeded frame-to-model ICP, dead reckoning while tracking is unreliable,
+// fusion into the sparse TSDF volume (Reconstructor). Without INPUT it scans the embedded demo
+// (the synthetic furnished room, synthesized on the first run). Writes into --out DIR:
+// trajectory.txt, frames.csv, mesh.glb, mesh.ply, preview.png, overview.png and summary.json,
+// each atomically; a failure or Ctrl-C mid-scan still writes the outputs of the frames done.
+
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <optional>
+#include <string>
+#include <unistd.h>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "cli_numbers.hpp"
+#include "demo_sequence.hpp"
+#include "imufusion/eval.hpp"
+#include "imufusion/image_io.hpp"
+#include "imufusion/reconstructor.hpp"
+#include "imufusion/scan_report.hpp"
+#include "imufusion/sequence.hpp"
+#include "imufusion/trajectory.hpp"
+#include "io/atomic_file.hpp"
+#include "overview_pose.hpp"
+
+namespace fs = std::filesystem;
+using namespace imufusion;
+
+namespace {
+
+volatile std::sig_atomic_t g_interrupted = 0;
+void on_interrupt(int) { g_interrupted = 1; }
+
+struct Options {
+  fs::path input;
+  fs::path out = "scan";
+  fs::path poses;
+  fs::path demo_dir = "demo";
+  int demo_frames = 60;
+  bool no_imu = false;
+  bool no_color = false;
+  bool estimate_imu_rotation = false;
+  std::optional<int> icp_iterations;
+  std::optional<TranslationModel> translation;
+  int recovery_frames = TrackingConfig{}.recovery_frames;
+  float voxel_size = 0.01f;
+  long max_frames = -1;
+  std::string device;
+  bool list_devices = false;
+  bool quiet = false;
+};
+
+// ICP iterations per frame when the gyro seeds the rotation, and without it (the paper's
+// comparison: one to two iterations with the IMU against up to 30 without; bench/README.md
+// "Inertial navigation end to end" has the measurements behind these defaults).
+constexpr int kIcpIterationsWithImu = 2;
+constexpr int kIcpIterationsWithoutImu = 30;
+
+int usage(std::ostream& out, int code) {
+  out << "usage: imufusion-scan [SEQUENCE] [--out DIR] [--no-imu] [--icp-iterations N]\n"
+         "                      [--voxel-size M] [--frames N] [--poses FILE] [--device NAME|INDEX]\n"
+         "                      [--list-devices] [--translation none|constant-velocity|accelerometer]\n"
+         "                      [--estimate-imu-rotation] [--recovery-frames N] [--no-color]\n"
+         "                      [--demo-dir DIR] [--demo-frames N] [--quiet]\n"
+         "Scans SEQUENCE (default: the embedded demo room, synthesized into --demo-dir, default\n"
+         "./demo) and writes DIR (default ./scan)/trajectory.txt, frames.csv, mesh.glb, mesh.ply,\n"
+         "preview.png, overview.png and summary.json.\n"
+         "  --no-imu                 track without the gyroscope (the ICP-only baseline)\n"
+         "  --icp-iterations N       Gauss-Newton steps per frame at most (default "
+      << kIcpIterationsWithImu << " with IMU, " << kIcpIterationsWithoutImu
+      << " without)\n"
+         "  --poses FILE             fuse with known camera-to-world poses (TUM format), no tracking\n"
+         "  --estimate-imu-rotation  ignore imu_to_camera.txt and estimate the camera-IMU rotation\n";
+  return code;
+}
+
+int parse(int argc, char** argv, Options& opt) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "-h" || a == "--help") return usage(std::cout, 0);
+    if (a == "--quiet") { opt.quiet = true; continue; }
+    if (a == "--no-imu") { opt.no_imu = true; continue; }
+    if (a == "--no-color") { opt.no_color = true; continue; }
+    if (a == "--list-devices") { opt.list_devices = true; continue; }
+    if (a == "--estimate-imu-rotation") { opt.estimate_imu_rotation = true; continue; }
+    if (a.size() > 1 && a[0] == '-') {
+      if (i + 1 >= argc) return (std::cerr << "error: " << a << " needs a value\n", usage(std::cerr, 2));
+      const std::string v = argv[++i];
+      auto bad = [&](const char* what) { return (std::cerr << "error: " << a << " needs " << what << ", got '" << v << "'\n", 2); };
+      const auto integer = tools::parse_integer(v);
+      if (a == "--out") opt.out = v;
+      else if (a == "--poses") opt.poses = v;
+      else if (a == "--device") opt.device = v;
+      else if (a == "--demo-dir") opt.demo_dir = v;
+      else if (a == "--icp-iterations") {
+        if (!integer || *integer < 1 || *integer > 100) return bad("a count 1..100");
+        opt.icp_iterations = static_cast<int>(*integer);
+      } else if (a == "--frames") {
+        if (!integer || *integer < 1) return bad("a positive count");
+        opt.max_frames = static_cast<long>(*integer);
+      } else if (a == "--demo-frames") {
+        if (!integer || *integer < 2 || *integer > 100000) return bad("a count of at least 2");
+        opt.demo_frames = static_cast<int>(*integer);
+      } else if (a == "--recovery-frames") {
+        if (!integer || *integer < 1 || *integer > 1000) return bad("a positive count");
+        opt.recovery_frames = static_cast<int>(*integer);
+      } else if (a == "--voxel-size") {
+        const auto m = tools::parse_number(v);
+        if (!m || *m < 0.001 || *m > 0.5) return bad("metres in [0.001, 0.5]");
+        opt.voxel_size = static_cast<float>(*m);
+      } else if (a == "--translation") {
+        opt.translation = parse_translation_model(v);
+        if (!opt.translation) return bad("none, constant-velocity or accelerometer");
+      } else {
+        std::cerr << "error: unknown option " << a << "\n";
+        return usage(std::cerr, 2);
+      }
+    } else if (opt.input.empty()) {
+      opt.input = a;
+    } else {
+      std::cerr << "error: more than one input: " << opt.input << " and " << a << "\n";
+      return usage(std::cerr, 2);
+    }
+  }
+  return -1;
+}
+
+int fail(const std::string& message) {
+  std::cerr << "error: " << message << "\n";
+  return 1;
+}
+
+int print_devices() {
+  auto devices = list_devices();
+  if (!devices) return fail(devices.error().describe());
+  for (const DeviceInfo& d : *devices)
+    std::printf("%d: %s (%s, %s)\n", d.index, d.name.c_str(), to_string(d.type), d.driver.c_str());
+  return 0;
+}
+
+void show_progress(std::size_t done, std::size_t total, const FrameResult& f, double fps) {
+  constexpr int kWidth = 30;
+  const int filled = total > 0 ? static_cast<int>(kWidth * done / total) : 0;
+  std::fprintf(stderr, "\r[%s%s] %zu/%zu  %.1f fps  %-10s icp %d it", std::string(static_cast<std::size_t>(filled), '#').c_str(),
+               std::string(static_cast<std::size_t>(kWidth - filled), ' ').c_str(), done, total, fps,
+               to_string(f.status), f.icp_ran ? f.icp.quality.iterations : 0);
+  std::fflush(stderr);
+}
+
+ReconstructorConfig make_config(const Options& opt, const SequenceReader& reader, const Intrinsics& k) {
+  ReconstructorConfig config;
+  config.intrinsics = k;
+  config.volume.voxel_size = opt.voxel_size;
+  config.device.selector = opt.device;
+  config.use_imu = !opt.no_imu && reader.has_imu();
+  config.icp.max_total_iterations =
+      opt.icp_iterations.value_or(config.use_imu ? kIcpIterationsWithImu : kIcpIterationsWithoutImu);
+  config.tracking.recovery_frames = opt.recovery_frames;
+  const SequenceInfo& info = reader.info();
+  config.inertial.T_camera_imu = info.T_camera_imu;
+  config.inertial.T_camera_imu_known = info.has_imu_to_camera && !opt.estimate_imu_rotation;
+  if (!config.inertial.T_camera_imu_known) config.inertial.T_camera_imu = Eigen::Isometry3d::Identity();
+  if (auto noise = info.info.find("gyro_noise_density"); noise != info.info.end()) {
+    if (auto v = tools::parse_number(noise->second); v && *v > 0) config.inertial.gyro_noise_density = *v;
+  }
+  if (opt.translation) config.inertial.translation = *opt.translation;
+  return config;
+}
+
+struct ScanRun {
+  std::vector<FrameResult> frames;
+  std::vector<std::uint32_t> blocks;
+  std::string stopped;  // why the scan ended early, empty when it ran through
+  std::size_t frames_without_pose = 0;
+};
+
+nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const ScanRun& run,
+                            const ScanStatistics& stats, const SequenceReader& reader, fs::path input) {
+  const ReconstructorConfig& c = rec.config();
+  nlohmann::json j;
+  j["input"] = input.string();
+  j["device"] = rec.device().name;
+  j["frames"] = stats.frames;
+  j["frames_fused"] = stats.fused;
+  j["lost_frames"] = stats.lost;
+  j["recovering_frames"] = stats.recovering;
+  j["dead_reckoned_frames"] = stats.dead_reckoned;
+  j["recoveries"] = stats.recoveries;
+  j["frames_to_recover"] = stats.recovery_frames;
+  j["mean_icp_iterations"] = stats.mean_icp_iterations;
+  j["median_icp_iterations"] = stats.median_icp_iterations;
+  j["fps"] = stats.fps;
+  j["median_frame_ms"] = stats.median_frame_ms;
+  j["blocks_allocated"] = rec.allocated_blocks();
+  j["volume_bytes_reserved"] = rec.memory_bytes();
+  if (!run.stopped.empty()) j["stopped_early"] = run.stopped;
+  if (run.frames_without_pose > 0) j["frames_without_pose"] = run.frames_without_pose;
+  auto& s = j["settings"];
+  s["mode"] = opt.poses.empty() ? "track" : "known_poses";
+  s["imu"] = c.use_imu;
+  s["imu_in_sequence"] = reader.has_imu();
+  s["icp_iterations_cap"] = c.icp.max_total_iterations;
+  s["recovery_icp_iterations"] = c.tracking.recovery_icp_iterations;
+  s["recovery_frames"] = c.tracking.recovery_frames;
+  s["translation_model"] = to_string(c.inertial.translation);
+  s["camera_imu_rotation"] = c.inertial.T_camera_imu_known ? "given" : "estimated";
+  s["voxel_size"] = c.volume.voxel_size;
+  s["truncation"] = c.volume.truncation();
+  s["width"] = c.intrinsics.width;
+  s["height"] = c.intrinsics.height;
+  if (!run.frames.empty() && c.use_imu) {
+    const InertialStatus& in = run.frames.back().inertial;
+    auto& imu = j["imu_estimates"];
+    imu["gyro_bias"] = {in.gyro_bias.x(), in.gyro_bias.y(), in.gyro_bias.z()};
+    imu["gyro_bias_updates"] = in.bias_updates;
+    imu["R_camera_imu_xyzw"] = {in.R_camera_imu.x(), in.R_camera_imu.y(), in.R_camera_imu.z(), in.R_camera_imu.w()};
+    imu["R_camera_imu_estimated"] = in.R_camera_imu_estimated;
+    imu["R_camera_imu_sigma_deg"] = in.R_camera_imu_sigma_deg;
+    imu["hand_eye_pairs"] = in.hand_eye_pairs;
+  }
+  if (reader.has_ground_truth() && run.frames.size() >= 3) {
+    auto ate = evaluate_ate(reader.ground_truth(), rec.trajectory());
+    if (ate) {
+      j["ate"] = {{"rmse", ate->stats.rmse}, {"mean", ate->stats.mean}, {"median", ate->stats.median},
+                  {"max", ate->stats.max}, {"matched", ate->stats.count}};
+    } else {
+      j["ate_error"] = ate.error().message;
+    }
+  }
+  return j;
+}
+
+// Writes every output of the frames scanned so far; returns the first failure.
+Status write_outputs(const Options& opt, Reconstructor& rec, const ScanRun& run, const nlohmann::json& summary_in,
+                     std::string* mesh_line) {
+  IMUFUSION_RETURN_IF_ERROR(write_trajectory(opt.out / "trajectory.txt", rec.trajectory(),
+                                             "camera-to-world poses of imufusion-scan, one per input frame"));
+  std::string csv = frames_csv_header() + "\n";
+  for (std::size_t i = 0; i < run.frames.size(); ++i) csv += frames_csv_row(run.frames[i], run.blocks[i]) + "\n";
+  IMUFUSION_RETURN_IF_ERROR(io::write_text_atomically(opt.out / "frames.csv", csv));
+  nlohmann::json summary = summary_in;
+  auto mesh = rec.extract_mesh();
+  if (!mesh) return mesh.error();
+  summary["mesh_vertices"] = mesh->vertices.size();
+  summary["mesh_triangles"] = mesh->triangles.size();
+  if (!mesh->triangles.empty()) {
+    IMUFUSION_RETURN_IF_ERROR(write_glb(opt.out / "mesh.glb", *mesh));
+    IMUFUSION_RETURN_IF_ERROR(write_ply(opt.out / "mesh.ply", *mesh));
+    auto preview = rec.raycast(rec.trajectory().back().T_world_camera);
+    if (!preview) return preview.error();
+    IMUFUSION_RETURN_IF_ERROR(write_color_png(opt.out / "preview.png", preview->shaded));
+    auto volume = rec.snapshot();
+    if (!volume) return volume.error();
+    auto overview = rec.raycast(tools::overview_pose(*volume, rec.trajectory().front().T_world_camera,
+                                                     rec.config().intrinsics),
+                                std::nullopt, std::pair{0.1f, 100.0f});
+    if (!overview) return overview.error();
+    IMUFUSION_RETURN_IF_ERROR(write_color_png(opt.out / "overview.png", overview->shaded));
+    *mesh_line = "mesh " + std::to_string(mesh->triangles.size()) + " triangles -> " +
+                 (opt.out / "mesh.glb").string() + ", preview -> " + (opt.out / "preview.png").string();
+  } else {
+    *mesh_line = "no surface was fused: no mesh or preview written";
+  }
+  return io::write_text_atomically(opt.out / "summary.json", summary.dump(2) + "\n");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  if (const int rc = parse(argc, argv, opt); rc >= 0) return rc;
+  if (opt.list_devices) return print_devices();
+
+  fs::path input = opt.input;
+  if (input.empty()) {
+    auto demo = tools::ensure_demo_sequence(opt.demo_dir, opt.demo_frames);
+    if (!demo) return fail(demo.error().describe());
+    input = *demo;
+  }
+  SequenceOptions sequence_options;
+  sequence_options.load_color = !opt.no_color;
+  auto reader = SequenceReader::open(input, sequence_options);
+  if (!reader) return fail(reader.error().describe());
+  if (!reader->intrinsics()) return fail((input / "calibration.txt").string() + " is missing");
+  if (reader->frame_count() == 0) return fail((input / "depth.txt").string() + " lists no frames");
+  Trajectory known;
+  if (!opt.poses.empty()) {
+    auto read = read_trajectory(opt.poses);
+    if (!read) return fail(read.error().describe());
+    known = std::move(*read);
+  }
+  Intrinsics k = *reader->intrinsics();
+  k.width = reader->info().width;
+  k.height = reader->info().height;
+  auto rec = Reconstructor::create(make_config(opt, *reader, k));
+  if (!rec) return fail(rec.error().describe());
+  std::error_code ec;
+  fs::create_directories(opt.out, ec);
+  if (ec) return fail("cannot create " + opt.out.string() + ": " + ec.message());
+
+  std::signal(SIGINT, on_interrupt);
+  const std::size_t total = opt.max_frames > 0
+      ? std::min<std::size_t>(reader->frame_count(), static_cast<std::size_t>(opt.max_frames))
+      : reader->frame_count();
+  const bool progress = !opt.quiet && isatty(STDERR_FILENO);
+  ScanRun run;
+  int exit_code = 0;
+  double elapsed_ms = 0;
+  for (std::size_t i = 0; i < total; ++i) {
+    if (g_interrupted) {
+      run.stopped = "interrupted after " + std::to_string(i) + " frames";
+      exit_code = 130;
+      break;
+    }
+    auto frame = reader->next();
+    if (!frame) {
+      run.stopped = frame.error().describe();
+      exit_code = 1;
+      break;
+    }
+    const ColorImage* color = frame->color ? &*frame->color : nullptr;
+    Result<FrameResult> result = make_error(ErrorCode::kInternal, "no frame");
+    if (!opt.poses.empty()) {
+      const StampedPose* pose = find_pose(known, frame->timestamp);
+      if (pose == nullptr) {
+        ++run.frames_without_pose;
+        continue;
+      }
+      result = rec->fuse_with_pose(frame->timestamp, frame->depth, color, pose->T_world_camera, frame->imu);
+    } else {
+      result = rec->track_and_fuse(frame->timestamp, frame->depth, color, frame->imu);
+    }
+    if (!result) {
+      run.stopped = "frame " + std::to_string(i) + " (t=" + std::to_string(frame->timestamp) + "): " +
+                    result.error().describe();
+      exit_code = 1;
+      break;
+    }
+    elapsed_ms += result->timings.total_ms;
+    run.frames.push_back(std::move(*result));
+    run.blocks.push_back(rec->allocated_blocks());
+    if (progress) show_progress(i + 1, total, run.frames.back(), 1000.0 * static_cast<double>(run.frames.size()) / elapsed_ms);
+  }
+  if (progress) std::fputc('\n', stderr);
+  if (!run.stopped.empty()) std::cerr << (exit_code == 130 ? "stopped: " : "error: ") << run.stopped << "\n";
+  if (run.frames.empty()) return fail("no frame was scanned; nothing written");
+
+  const ScanStatistics stats = summarize_scan(run.frames);
+  const nlohmann::json summary = summary_json(opt, *rec, run, stats, *reader, input);
+  std::string mesh_line;
+  if (auto s = write_outputs(opt, *rec, run, summary, &mesh_line); !s) return fail(s.error().describe());
+  std::printf("scanned %zu frames on %s: %zu fused, %zu lost, %zu recoveries, %.2f ICP iterations/frame, "
+              "%.1f fps",
+              stats.frames, rec->device().name.c_str(), stats.fused, stats.lost, stats.recoveries,
+              stats.mean_icp_iterations, stats.fps);
+  if (summary.contains("ate")) std::printf(", ATE %.1f mm", 1000 * summary["ate"]["rmse"].get<double>());
+  std::printf("\n%s\n", mesh_line.c_str());
+  return exit_code;
+}
