@@ -1,15 +1,20 @@
 // imufusion-scan [INPUT] [options]
 //
-// Scans a sequence: IMU-seeded frame-to-model ICP, dead reckoning while tracking is unreliable,
+// Scans a sequence, an OpenNI2 camera (openni2://[URI]) or recording (FILE.oni): IMU-seeded frame-to-model ICP, dead reckoning while tracking is unreliable,
 // fusion into the sparse TSDF volume (Reconstructor). Without INPUT it scans the embedded demo
 // (the synthetic furnished room, synthesized on the first run). Writes into --out DIR:
 // trajectory.txt, frames.csv, mesh.glb, mesh.ply, preview.png, overview.png and summary.json,
 // each atomically; a failure or Ctrl-C mid-scan still writes the outputs of the frames done.
+// --imu-udp takes the IMU from a UDP stream instead of the sequence (scan_live.hpp); --record
+// writes the session (frames and IMU) as a sequence.
 
+#include <algorithm>
 #include <csignal>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 #include <optional>
 #include <string>
 #include <unistd.h>
@@ -24,9 +29,11 @@
 #include "imufusion/reconstructor.hpp"
 #include "imufusion/scan_report.hpp"
 #include "imufusion/sequence.hpp"
+#include "imufusion/source.hpp"
 #include "imufusion/trajectory.hpp"
 #include "io/atomic_file.hpp"
 #include "overview_pose.hpp"
+#include "scan_live.hpp"
 
 namespace fs = std::filesystem;
 using namespace imufusion;
@@ -53,6 +60,11 @@ struct Options {
   std::string device;
   bool list_devices = false;
   bool quiet = false;
+  DepthMode depth_mode;
+  bool realtime = false;
+  std::optional<std::uint16_t> imu_udp;
+  std::string imu_udp_address = ImuUdpOptions{}.address;
+  fs::path record;
 };
 
 // ICP iterations per frame when the gyro seeds the rotation, and without it (the paper's
@@ -66,16 +78,23 @@ int usage(std::ostream& out, int code) {
          "                      [--voxel-size M] [--frames N] [--poses FILE] [--device NAME|INDEX]\n"
          "                      [--list-devices] [--translation none|constant-velocity|accelerometer]\n"
          "                      [--estimate-imu-rotation] [--recovery-frames N] [--no-color]\n"
-         "                      [--demo-dir DIR] [--demo-frames N] [--quiet]\n"
-         "Scans SEQUENCE (default: the embedded demo room, synthesized into --demo-dir, default\n"
-         "./demo) and writes DIR (default ./scan)/trajectory.txt, frames.csv, mesh.glb, mesh.ply,\n"
+         "                      [--demo-dir DIR] [--demo-frames N] [--quiet] [--depth-mode WxH@FPS]\n"
+         "                      [--realtime] [--imu-udp PORT] [--imu-udp-address ADDR] [--record DIR]\n"
+         "Scans SEQUENCE, a camera (openni2:// or openni2://URI) or a recording (FILE.oni) (default:\n"
+         "the embedded demo room, synthesized into --demo-dir, default ./demo) and writes DIR (default ./scan)/trajectory.txt, frames.csv, mesh.glb, mesh.ply,\n"
          "preview.png, overview.png and summary.json.\n"
          "  --no-imu                 track without the gyroscope (the ICP-only baseline)\n"
          "  --icp-iterations N       Gauss-Newton steps per frame at most (default "
       << kIcpIterationsWithImu << " with IMU, " << kIcpIterationsWithoutImu
       << " without)\n"
          "  --poses FILE             fuse with known camera-to-world poses (TUM format), no tracking\n"
-         "  --estimate-imu-rotation  ignore imu_to_camera.txt and estimate the camera-IMU rotation\n";
+         "  --estimate-imu-rotation  ignore imu_to_camera.txt and estimate the camera-IMU rotation\n"
+         "  --depth-mode WxH@FPS     camera depth mode (default 640x480@30)\n"
+         "  --realtime               deliver recorded frames at their recorded pace\n"
+         "  --imu-udp PORT           take the IMU from UDP lines (imu.txt or Sensorstream format) on\n"
+         "                           PORT instead of the sequence's imu.txt\n"
+         "  --imu-udp-address ADDR   IPv4 address to listen on (default " << ImuUdpOptions{}.address << ")\n"
+         "  --record DIR             write the session's frames and IMU as a sequence into DIR\n";
   return code;
 }
 
@@ -88,6 +107,7 @@ int parse(int argc, char** argv, Options& opt) {
     if (a == "--no-color") { opt.no_color = true; continue; }
     if (a == "--list-devices") { opt.list_devices = true; continue; }
     if (a == "--estimate-imu-rotation") { opt.estimate_imu_rotation = true; continue; }
+    if (a == "--realtime") { opt.realtime = true; continue; }
     if (a.size() > 1 && a[0] == '-') {
       if (i + 1 >= argc) return (std::cerr << "error: " << a << " needs a value\n", usage(std::cerr, 2));
       const std::string v = argv[++i];
@@ -97,6 +117,16 @@ int parse(int argc, char** argv, Options& opt) {
       else if (a == "--poses") opt.poses = v;
       else if (a == "--device") opt.device = v;
       else if (a == "--demo-dir") opt.demo_dir = v;
+      else if (a == "--record") opt.record = v;
+      else if (a == "--imu-udp-address") opt.imu_udp_address = v;
+      else if (a == "--depth-mode") {
+        auto mode = parse_depth_mode(v);
+        if (!mode) return (std::cerr << "error: " << mode.error().describe() << "\n", 2);
+        opt.depth_mode = *mode;
+      } else if (a == "--imu-udp") {
+        if (!integer || *integer < 1 || *integer > 65535) return bad("a UDP port 1..65535");
+        opt.imu_udp = static_cast<std::uint16_t>(*integer);
+      }
       else if (a == "--icp-iterations") {
         if (!integer || *integer < 1 || *integer > 100) return bad("a count 1..100");
         opt.icp_iterations = static_cast<int>(*integer);
@@ -143,30 +173,44 @@ int print_devices() {
   return 0;
 }
 
+// The status line: a progress bar when the frame count is known (0: a camera), the tracking
+// state and the ICP quality of the latest frame.
 void show_progress(std::size_t done, std::size_t total, const FrameResult& f, double fps) {
   constexpr int kWidth = 30;
-  const int filled = total > 0 ? static_cast<int>(kWidth * done / total) : 0;
-  std::fprintf(stderr, "\r[%s%s] %zu/%zu  %.1f fps  %-10s icp %d it", std::string(static_cast<std::size_t>(filled), '#').c_str(),
-               std::string(static_cast<std::size_t>(kWidth - filled), ' ').c_str(), done, total, fps,
-               to_string(f.status), f.icp_ran ? f.icp.quality.iterations : 0);
+  std::string count = std::to_string(done) + " frames";
+  if (total > 0) {
+    const auto filled = static_cast<std::size_t>(kWidth * done / total);
+    count = "[" + std::string(filled, '#') + std::string(kWidth - filled, ' ') + "] " + std::to_string(done) + "/" +
+            std::to_string(total);
+  }
+  std::fprintf(stderr, "\r%s  %.1f fps  %-14s icp %d it %llu inliers kappa %.0f  ", count.c_str(), fps,
+               tools::tracking_state(f), f.icp_ran ? f.icp.quality.iterations : 0,
+               static_cast<unsigned long long>(f.icp_ran ? f.icp.quality.inliers : 0),
+               f.icp_ran ? f.icp.quality.condition : 0.0);
   std::fflush(stderr);
 }
 
-ReconstructorConfig make_config(const Options& opt, const SequenceReader& reader, const Intrinsics& k) {
+// `reader`: the sequence when the input is one (null for a camera or .oni recording).
+ReconstructorConfig make_config(const Options& opt, const SequenceReader* reader, const FrameSource* source,
+                                const Intrinsics& k) {
   ReconstructorConfig config;
   config.intrinsics = k;
   config.volume.voxel_size = opt.voxel_size;
   config.device.selector = opt.device;
-  config.use_imu = !opt.no_imu && reader.has_imu();
+  config.use_imu = !opt.no_imu && (opt.imu_udp || (reader != nullptr && reader->has_imu()));
   config.icp.max_total_iterations =
       opt.icp_iterations.value_or(config.use_imu ? kIcpIterationsWithImu : kIcpIterationsWithoutImu);
   config.tracking.recovery_frames = opt.recovery_frames;
-  const SequenceInfo& info = reader.info();
-  config.inertial.T_camera_imu = info.T_camera_imu;
-  config.inertial.T_camera_imu_known = info.has_imu_to_camera && !opt.estimate_imu_rotation;
-  if (!config.inertial.T_camera_imu_known) config.inertial.T_camera_imu = Eigen::Isometry3d::Identity();
-  if (auto noise = info.info.find("gyro_noise_density"); noise != info.info.end()) {
-    if (auto v = tools::parse_number(noise->second); v && *v > 0) config.inertial.gyro_noise_density = *v;
+  std::optional<Eigen::Isometry3d> T_camera_imu = source != nullptr ? source->T_camera_imu() : std::nullopt;
+  if (reader != nullptr && reader->info().has_imu_to_camera) T_camera_imu = reader->info().T_camera_imu;
+  config.inertial.T_camera_imu_known = T_camera_imu.has_value() && !opt.estimate_imu_rotation;
+  config.inertial.T_camera_imu =
+      config.inertial.T_camera_imu_known ? *T_camera_imu : Eigen::Isometry3d::Identity();
+  if (reader != nullptr) {
+    const auto& info = reader->info().info;
+    if (auto noise = info.find("gyro_noise_density"); noise != info.end()) {
+      if (auto v = tools::parse_number(noise->second); v && *v > 0) config.inertial.gyro_noise_density = *v;
+    }
   }
   if (opt.translation) config.inertial.translation = *opt.translation;
   return config;
@@ -180,10 +224,10 @@ struct ScanRun {
 };
 
 nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const ScanRun& run,
-                            const ScanStatistics& stats, const SequenceReader& reader, fs::path input) {
+                            const ScanStatistics& stats, const SequenceReader* reader, const std::string& input) {
   const ReconstructorConfig& c = rec.config();
   nlohmann::json j;
-  j["input"] = input.string();
+  j["input"] = input;
   j["device"] = rec.device().name;
   j["frames"] = stats.frames;
   j["frames_fused"] = stats.fused;
@@ -203,7 +247,8 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
   auto& s = j["settings"];
   s["mode"] = opt.poses.empty() ? "track" : "known_poses";
   s["imu"] = c.use_imu;
-  s["imu_in_sequence"] = reader.has_imu();
+  s["imu_in_sequence"] = reader != nullptr && reader->has_imu();
+  s["imu_source"] = !c.use_imu ? "none" : opt.imu_udp ? "udp" : "sequence";
   s["icp_iterations_cap"] = c.icp.max_total_iterations;
   s["recovery_icp_iterations"] = c.tracking.recovery_icp_iterations;
   s["recovery_frames"] = c.tracking.recovery_frames;
@@ -223,8 +268,8 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
     imu["R_camera_imu_sigma_deg"] = in.R_camera_imu_sigma_deg;
     imu["hand_eye_pairs"] = in.hand_eye_pairs;
   }
-  if (reader.has_ground_truth() && run.frames.size() >= 3) {
-    auto ate = evaluate_ate(reader.ground_truth(), rec.trajectory());
+  if (reader != nullptr && reader->has_ground_truth() && run.frames.size() >= 3) {
+    auto ate = evaluate_ate(reader->ground_truth(), rec.trajectory());
     if (ate) {
       j["ate"] = {{"rmse", ate->stats.rmse}, {"mean", ate->stats.mean}, {"median", ate->stats.median},
                   {"max", ate->stats.max}, {"matched", ate->stats.count}};
@@ -269,6 +314,30 @@ Status write_outputs(const Options& opt, Reconstructor& rec, const ScanRun& run,
   return io::write_text_atomically(opt.out / "summary.json", summary.dump(2) + "\n");
 }
 
+bool is_device_input(const fs::path& input) {
+  return input.string().rfind("openni2://", 0) == 0 || input.extension() == ".oni";
+}
+
+// The next frame of the sequence (frame `i`), nullopt past its end.
+Result<std::optional<Frame>> next_from(SequenceReader& reader, std::size_t i) {
+  if (i >= reader.frame_count()) return std::optional<Frame>{};
+  auto frame = reader.next();
+  if (!frame) return frame.error();
+  return std::optional<Frame>(std::move(*frame));
+}
+
+// A recorder for --record: calibration, imu_to_camera and the sequence's info lines.
+Result<SessionRecorder> open_recorder(const Options& opt, const ReconstructorConfig& c, const SequenceReader* reader) {
+  auto recorder = SessionRecorder::create(opt.record);
+  if (!recorder) return recorder.error();
+  recorder->set_intrinsics(c.intrinsics);
+  if (c.inertial.T_camera_imu_known) recorder->set_T_camera_imu(c.inertial.T_camera_imu);
+  if (reader != nullptr) {
+    for (const auto& [key, value] : reader->info().info) recorder->set_info(key, value);
+  }
+  return recorder;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -282,76 +351,131 @@ int main(int argc, char** argv) {
     if (!demo) return fail(demo.error().describe());
     input = *demo;
   }
-  SequenceOptions sequence_options;
-  sequence_options.load_color = !opt.no_color;
-  auto reader = SequenceReader::open(input, sequence_options);
-  if (!reader) return fail(reader.error().describe());
-  if (!reader->intrinsics()) return fail((input / "calibration.txt").string() + " is missing");
-  if (reader->frame_count() == 0) return fail((input / "depth.txt").string() + " lists no frames");
+  // A sequence is read by SequenceReader (ground truth, info, frame count); cameras, .oni
+  // recordings and paced sequences (--realtime) deliver their frames through a FrameSource.
+  std::optional<SequenceReader> reader;
+  if (!is_device_input(input)) {
+    SequenceOptions sequence_options;
+    sequence_options.load_color = !opt.no_color;
+    auto opened = SequenceReader::open(input, sequence_options);
+    if (!opened) return fail(opened.error().describe());
+    if (!opened->intrinsics()) return fail((input / "calibration.txt").string() + " is missing");
+    if (opened->frame_count() == 0) return fail((input / "depth.txt").string() + " lists no frames");
+    reader = std::move(*opened);
+  }
+  std::unique_ptr<FrameSource> source;
+  if (!reader || opt.realtime) {
+    SourceOptions source_options;
+    source_options.depth_mode = opt.depth_mode;
+    source_options.color = !opt.no_color;
+    source_options.realtime = opt.realtime;
+    source_options.sequence.load_color = !opt.no_color;
+    auto opened = open_frame_source(input.string(), source_options);
+    if (!opened) return fail(opened.error().describe());
+    source = std::move(*opened);
+  }
   Trajectory known;
   if (!opt.poses.empty()) {
     auto read = read_trajectory(opt.poses);
     if (!read) return fail(read.error().describe());
     known = std::move(*read);
   }
-  Intrinsics k = *reader->intrinsics();
-  k.width = reader->info().width;
-  k.height = reader->info().height;
-  auto rec = Reconstructor::create(make_config(opt, *reader, k));
+  Intrinsics k = reader ? *reader->intrinsics() : source->intrinsics();
+  if (reader) {
+    k.width = reader->info().width;
+    k.height = reader->info().height;
+  }
+  const SequenceReader* sequence = reader ? &*reader : nullptr;
+  auto rec = Reconstructor::create(make_config(opt, sequence, source.get(), k));
   if (!rec) return fail(rec.error().describe());
+  std::optional<tools::LiveImu> imu;
+  if (opt.imu_udp) {
+    auto opened = tools::LiveImu::open(*opt.imu_udp, opt.imu_udp_address);
+    if (!opened) return fail(opened.error().describe());
+    imu.emplace(std::move(*opened));
+  }
   std::error_code ec;
   fs::create_directories(opt.out, ec);
   if (ec) return fail("cannot create " + opt.out.string() + ": " + ec.message());
+  std::optional<SessionRecorder> recorder;
+  if (!opt.record.empty()) {
+    auto opened = open_recorder(opt, rec->config(), sequence);
+    if (!opened) return fail(opened.error().describe());
+    recorder.emplace(std::move(*opened));
+  }
+  if (imu && !opt.quiet) std::cerr << "imu: listening on " << imu->endpoint() << std::endl;
 
   std::signal(SIGINT, on_interrupt);
-  const std::size_t total = opt.max_frames > 0
-      ? std::min<std::size_t>(reader->frame_count(), static_cast<std::size_t>(opt.max_frames))
-      : reader->frame_count();
+  const std::size_t limit = opt.max_frames > 0 ? static_cast<std::size_t>(opt.max_frames) : SIZE_MAX;
+  const std::size_t total = reader ? std::min(reader->frame_count(), limit) : (opt.max_frames > 0 ? limit : 0);
   const bool progress = !opt.quiet && isatty(STDERR_FILENO);
   ScanRun run;
   int exit_code = 0;
   double elapsed_ms = 0;
-  for (std::size_t i = 0; i < total; ++i) {
+  for (std::size_t i = 0; i < limit; ++i) {
     if (g_interrupted) {
       run.stopped = "interrupted after " + std::to_string(i) + " frames";
       exit_code = 130;
       break;
     }
-    auto frame = reader->next();
-    if (!frame) {
-      run.stopped = frame.error().describe();
+    auto next = source ? source->next() : next_from(*reader, i);
+    if (!next) {
+      run.stopped = next.error().describe();
       exit_code = 1;
       break;
     }
-    const ColorImage* color = frame->color ? &*frame->color : nullptr;
+    if (!*next) break;  // the end of the recording
+    Frame& frame = **next;
+    // The recorder takes IMU samples on the IMU's clock: the sequence's are on the frame clock
+    // already, the stream's are mapped for tracking and shifted by the final offset at finish().
+    std::vector<ImuSample> imu_raw = frame.imu;
+    if (imu) frame.imu = imu->take(frame.timestamp, &imu_raw);
+    if (recorder) {
+      recorder->push_imu(imu_raw);
+      recorder->push_frame(frame);
+    }
+    const ColorImage* color = frame.color ? &*frame.color : nullptr;
     Result<FrameResult> result = make_error(ErrorCode::kInternal, "no frame");
     if (!opt.poses.empty()) {
-      const StampedPose* pose = find_pose(known, frame->timestamp);
+      const StampedPose* pose = find_pose(known, frame.timestamp);
       if (pose == nullptr) {
         ++run.frames_without_pose;
         continue;
       }
-      result = rec->fuse_with_pose(frame->timestamp, frame->depth, color, pose->T_world_camera, frame->imu);
+      result = rec->fuse_with_pose(frame.timestamp, frame.depth, color, pose->T_world_camera, frame.imu);
     } else {
-      result = rec->track_and_fuse(frame->timestamp, frame->depth, color, frame->imu);
+      result = rec->track_and_fuse(frame.timestamp, frame.depth, color, frame.imu);
     }
     if (!result) {
-      run.stopped = "frame " + std::to_string(i) + " (t=" + std::to_string(frame->timestamp) + "): " +
+      run.stopped = "frame " + std::to_string(i) + " (t=" + std::to_string(frame.timestamp) + "): " +
                     result.error().describe();
       exit_code = 1;
       break;
     }
     elapsed_ms += result->timings.total_ms;
+    if (imu) imu->observe(*result);
     run.frames.push_back(std::move(*result));
     run.blocks.push_back(rec->allocated_blocks());
     if (progress) show_progress(i + 1, total, run.frames.back(), 1000.0 * static_cast<double>(run.frames.size()) / elapsed_ms);
   }
   if (progress) std::fputc('\n', stderr);
   if (!run.stopped.empty()) std::cerr << (exit_code == 130 ? "stopped: " : "error: ") << run.stopped << "\n";
+  nlohmann::json recording;
+  if (recorder) {
+    if (imu) recorder->set_imu_clock_offset(imu->imu_to_frame_offset());
+    const Status finished = recorder->finish();
+    if (!finished) {
+      std::cerr << "error: recording into " << opt.record.string() << ": " << finished.error().describe() << "\n";
+      if (exit_code == 0) exit_code = 1;
+    }
+    recording = tools::recorder_report(*recorder, finished);
+  }
   if (run.frames.empty()) return fail("no frame was scanned; nothing written");
 
   const ScanStatistics stats = summarize_scan(run.frames);
-  const nlohmann::json summary = summary_json(opt, *rec, run, stats, *reader, input);
+  nlohmann::json summary = summary_json(opt, *rec, run, stats, sequence, input.string());
+  if (imu) summary["imu_stream"] = imu->report();
+  if (recorder) summary["recording"] = recording;
   std::string mesh_line;
   if (auto s = write_outputs(opt, *rec, run, summary, &mesh_line); !s) return fail(s.error().describe());
   std::printf("scanned %zu frames on %s: %zu fused, %zu lost, %zu recoveries, %.2f ICP iterations/frame, "

@@ -1,0 +1,197 @@
+// Runs the built imufusion-scan with its live inputs on small synthetic sequences: --record writes
+// a sequence that reads back frame for frame and scans the same; --imu-udp takes the IMU from a
+// UDP stream replayed at its real rate while the frames come at theirs (--realtime); an
+// OpenNI2 input without a camera fails cleanly.
+
+#include <gtest/gtest.h>
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <chrono>
+#include <filesystem>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "imufusion/sequence.hpp"
+#include "imufusion/synth.hpp"
+#include "tool_runner.hpp"
+
+namespace imufusion {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+const fs::path kTool = fs::path(IMUFUSION_TEST_BINARY_DIR) / "tools" / "imufusion-scan";
+
+nlohmann::json read_json(const fs::path& path) { return nlohmann::json::parse(test::read_text(path)); }
+
+fs::path synthesize(const fs::path& root, const std::string& name, int frames, std::uint64_t seed) {
+  synth::SynthConfig config;
+  config.scene = synth::SceneKind::kRoom;
+  config.seed = seed;
+  config.width = 160;
+  config.height = 120;
+  config.frames = frames;
+  const fs::path dir = root / name;
+  auto summary = synth::synthesize(config, dir);
+  EXPECT_TRUE(summary.ok()) << summary.error().describe();
+  return dir;
+}
+
+std::size_t tracked_frames(const nlohmann::json& summary) {
+  return summary["frames"].get<std::size_t>() - summary["lost_frames"].get<std::size_t>() -
+         summary["recovering_frames"].get<std::size_t>();
+}
+
+// A UDP port that was free a moment ago (the kernel's pick for port 0).
+std::uint16_t free_udp_port() {
+  const int fd = socket(AF_INET, SOCK_DGRAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  addr.sin_port = 0;
+  socklen_t length = sizeof addr;
+  const bool ok = bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0 &&
+                  getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &length) == 0;
+  close(fd);
+  EXPECT_TRUE(ok) << "no free UDP port";
+  return ntohs(addr.sin_port);
+}
+
+class ScanLive : public ::testing::Test {
+ protected:
+  void SetUp() override { ASSERT_TRUE(fs::exists(kTool)) << kTool << " was not built"; }
+  test::ToolRun scan(const std::string& args) { return test::run_tool(kTool, args, scratch_.path()); }
+  fs::path path(const std::string& name) const { return scratch_.path() / name; }
+
+  test::ScratchDir scratch_{"imufusion_scan_live_"};
+};
+
+TEST_F(ScanLive, RecordsASequenceThatReadsBackAndScansTheSame) {
+  const fs::path seq = synthesize(scratch_.path(), "room", 24, 5);
+  const test::ToolRun run = scan(seq.string() + " --out " + path("out").string() + " --record " +
+                                 path("rec").string() + " --quiet");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json summary = read_json(path("out") / "summary.json");
+  ASSERT_TRUE(summary.contains("recording")) << summary.dump(2);
+  EXPECT_EQ(summary["recording"]["frames_written"], 24);
+  EXPECT_EQ(summary["recording"]["frames_dropped"], 0);
+  EXPECT_GT(summary["recording"]["imu_samples"].get<std::size_t>(), 0u);
+  EXPECT_FALSE(summary["recording"].contains("error"));
+
+  auto original = SequenceReader::open(seq);
+  auto recorded = SequenceReader::open(path("rec"));
+  ASSERT_TRUE(original.ok()) << original.error().describe();
+  ASSERT_TRUE(recorded.ok()) << recorded.error().describe();
+  ASSERT_EQ(recorded->frame_count(), original->frame_count());
+  std::size_t imu_handed_out = 0;  // the samples up to the last frame, those the scan took
+  for (std::size_t i = 0; i < original->frame_count(); ++i) {
+    auto a = original->frame(i);
+    auto b = recorded->frame(i);
+    ASSERT_TRUE(a.ok() && b.ok()) << i;
+    EXPECT_EQ(a->depth.data, b->depth.data) << "depth of frame " << i;
+    EXPECT_DOUBLE_EQ(a->timestamp, b->timestamp) << i;
+    imu_handed_out += a->imu.size();
+  }
+  EXPECT_EQ(recorded->imu().size(), imu_handed_out);
+
+  const test::ToolRun again = scan(path("rec").string() + " --out " + path("out2").string() + " --quiet");
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  const nlohmann::json summary2 = read_json(path("out2") / "summary.json");
+  EXPECT_EQ(summary2["frames"], summary["frames"]);
+  EXPECT_EQ(tracked_frames(summary2), tracked_frames(summary));
+}
+
+TEST_F(ScanLive, TakesTheImuFromAUdpStreamAtItsRealRate) {
+  constexpr int kFrames = 30;
+  const fs::path seq = synthesize(scratch_.path(), "room", kFrames, 9);
+  auto reader = SequenceReader::open(seq);
+  ASSERT_TRUE(reader.ok()) << reader.error().describe();
+  ASSERT_TRUE(reader->has_imu());
+  auto first = reader->frame(0);
+  ASSERT_TRUE(first.ok());
+  const double t_first_frame = first->timestamp;
+  std::vector<std::pair<double, std::string>> lines;
+  {
+    std::istringstream in(test::read_text(seq / "imu.txt"));
+    std::string line;
+    while (std::getline(in, line)) {
+      if (line.empty() || line[0] == '#') continue;
+      lines.emplace_back(std::stod(line), line);
+    }
+  }
+  ASSERT_FALSE(lines.empty());
+
+  // Replays imu.txt in real time once the tool listens (its stderr says so), the sample at the
+  // first frame's timestamp sent as the first frame is read.
+  const std::uint16_t port = free_udp_port();
+  std::atomic<bool> done{false};
+  std::atomic<std::size_t> sent{0};
+  const fs::path tool_err = path("tool_stderr.txt");
+  std::thread sender([&] {
+    const auto give_up = Clock::now() + std::chrono::seconds(300);
+    while (!done && test::read_text(tool_err).find("listening on") == std::string::npos) {
+      if (Clock::now() > give_up) return;
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    const int fd = socket(AF_INET, SOCK_DGRAM, 0);
+    sockaddr_in to{};
+    to.sin_family = AF_INET;
+    to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    to.sin_port = htons(port);
+    const auto start = Clock::now();
+    for (const auto& [t, line] : lines) {
+      if (done) break;
+      std::this_thread::sleep_until(start + std::chrono::duration<double>(std::max(0.0, t - t_first_frame)));
+      const std::string datagram = line + "\n";
+      if (sendto(fd, datagram.data(), datagram.size(), 0, reinterpret_cast<sockaddr*>(&to), sizeof to) > 0) ++sent;
+    }
+    close(fd);
+  });
+  const test::ToolRun run = scan(seq.string() + " --realtime --imu-udp " + std::to_string(port) + " --out " +
+                                 path("out").string());
+  done = true;
+  sender.join();
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  ASSERT_GT(sent.load(), 0u) << "the tool never said it was listening: " << run.err;
+
+  const nlohmann::json summary = read_json(path("out") / "summary.json");
+  ASSERT_TRUE(summary.contains("imu_stream")) << summary.dump(2);
+  const auto& stream = summary["imu_stream"];
+  EXPECT_GT(stream["samples"].get<std::size_t>(), 0u);
+  EXPECT_LE(stream["samples"].get<std::size_t>(), sent.load());
+  EXPECT_EQ(stream["malformed"], 0);
+  EXPECT_NE(stream["clock_offset_source"], "none");
+  // The stream starts as the first frame is read, both at their real rate, so the IMU clock maps
+  // onto the frame clock with a small offset (the sender's start delay; the host clock itself is
+  // far from both), whatever the machine's load does to the frame rate.
+  EXPECT_LT(std::abs(stream["clock_offset_frame_s"].get<double>()), 0.5) << stream.dump(2);
+  EXPECT_EQ(summary["settings"]["imu_source"], "udp");
+  EXPECT_EQ(summary["frames"], kFrames);
+  // Most frames track: the stream's samples, mapped onto the frame clock, seed the ICP as the
+  // sequence's own would.
+  EXPECT_GE(tracked_frames(summary), static_cast<std::size_t>(kFrames * 8 / 10)) << summary.dump(2);
+}
+
+TEST_F(ScanLive, CameraInputWithoutACameraFailsCleanly) {
+  const test::ToolRun run = scan("openni2:// --out " + path("out").string() + " --record " + path("rec").string());
+  EXPECT_EQ(run.exit_code, 1) << run.out << run.err;
+  EXPECT_NE(run.err.find("error:"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("openni2"), std::string::npos) << run.err;
+  EXPECT_FALSE(fs::exists(path("out")));
+  EXPECT_FALSE(fs::exists(path("rec")));
+}
+
+}  // namespace
+}  // namespace imufusion
