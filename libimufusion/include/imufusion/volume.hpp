@@ -30,11 +30,10 @@ struct VolumeConfig {
   std::uint32_t hash_slots = 1u << 18;      // hash-table slots (a power of two, > capacity)
 
   float truncation() const { return truncation_voxels * voxel_size; }  // metres
-  /// Device memory the volume reserves: the voxel pool (8 bytes per voxel), the hash table
-  /// (key, value and frame stamp per slot) and the per-block lists.
+  /// Device memory the volume reserves (bytes): the pool (8 bytes per voxel) and its slot per
+  /// block; per hash slot a key, pool index, frame stamp and visible-list entry.
   std::uint64_t reserved_bytes() const {
-    return std::uint64_t{block_capacity} * kBlockVoxels * 8 + std::uint64_t{hash_slots} * 12 +
-           std::uint64_t{block_capacity} * 4;
+    return std::uint64_t{block_capacity} * (kBlockVoxels * 8 + 4) + std::uint64_t{hash_slots} * 16;
   }
 };
 

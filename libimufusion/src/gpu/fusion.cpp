@@ -4,27 +4,11 @@
 #include <utility>
 
 #include "gpu/preprocessor.hpp"
+#include "gpu/rgba.hpp"
 #include "gpu/volume.hpp"
 #include "imufusion/fusion.hpp"
 
 namespace imufusion {
-namespace {
-
-ColorImage unpack_rgba(const std::vector<std::uint32_t>& rgba, int width, int height) {
-  ColorImage image;
-  image.width = width;
-  image.height = height;
-  image.data.resize(rgba.size() * 3);
-  for (std::size_t i = 0; i < rgba.size(); ++i) {
-    image.data[3 * i] = static_cast<std::uint8_t>(rgba[i] & 0xFF);
-    image.data[3 * i + 1] = static_cast<std::uint8_t>((rgba[i] >> 8) & 0xFF);
-    image.data[3 * i + 2] = static_cast<std::uint8_t>((rgba[i] >> 16) & 0xFF);
-  }
-  return image;
-}
-
-}  // namespace
-
 struct TsdfFusion::Impl {
   std::shared_ptr<gpu::Context> context;
   Intrinsics intrinsics;
@@ -81,11 +65,7 @@ Result<IntegrationStats> TsdfFusion::integrate(const DepthImage& depth, const Co
   if (!t) return t.error();
   if (timings != nullptr) timings->insert(timings->end(), t->begin(), t->end());
   if (color != nullptr) {
-    m.rgba.resize(static_cast<std::size_t>(color->width) * color->height);
-    for (std::size_t i = 0; i < m.rgba.size(); ++i) {
-      m.rgba[i] = std::uint32_t{color->data[3 * i]} | (std::uint32_t{color->data[3 * i + 1]} << 8) |
-                  (std::uint32_t{color->data[3 * i + 2]} << 16) | 0xFF000000u;
-    }
+    gpu::pack_rgba(*color, m.rgba);
     IMUFUSION_RETURN_IF_ERROR(m.color.upload(m.rgba.data(), m.rgba.size() * 4));
   }
   return m.volume.integrate(m.preprocess.raw_depth_metres(), color != nullptr ? &m.color : nullptr,
@@ -123,8 +103,8 @@ Result<RaycastImages> TsdfFusion::raycast(const Eigen::Isometry3d& T_world_camer
   if (!shaded) return shaded.error();
   auto colors = buffers[3].download_as<std::uint32_t>(pixels);
   if (!colors) return colors.error();
-  out.shaded = unpack_rgba(*shaded, k.width, k.height);
-  out.color = unpack_rgba(*colors, k.width, k.height);
+  out.shaded = gpu::unpack_rgba(*shaded, k.width, k.height);
+  out.color = gpu::unpack_rgba(*colors, k.width, k.height);
   return out;
 }
 
@@ -135,12 +115,7 @@ Result<HostVolume> TsdfFusion::snapshot() const { return impl_->volume.snapshot(
 Status TsdfFusion::reset() { return impl_->volume.reset(); }
 const DeviceInfo& TsdfFusion::device() const { return impl_->context->info(); }
 std::uint32_t TsdfFusion::allocated_blocks() const { return impl_->volume.allocated_blocks(); }
-std::uint64_t TsdfFusion::memory_bytes() const {
-  const VolumeConfig& c = impl_->volume.config();
-  // Pool (8 bytes per voxel) and its slot per block; per hash slot a key, pool index, stamp and
-  // visible-list entry.
-  return std::uint64_t{c.block_capacity} * (kBlockVoxels * 8 + 4) + std::uint64_t{c.hash_slots} * 16;
-}
+std::uint64_t TsdfFusion::memory_bytes() const { return impl_->volume.config().reserved_bytes(); }
 std::uint32_t TsdfFusion::validation_error_count() const {
   return impl_->context->validation_error_count();
 }
