@@ -56,7 +56,14 @@ class LiveImu {
       estimator_.add_imu(r.sample, r.host_receive_time);
       raw->push_back(r.sample);
     }
-    estimate_ = estimator_.estimate();
+    // The correlation search costs O(lags x intervals x log n) (milliseconds over a 30 s
+    // history): once it has an answer it is refreshed every kCorrelationRefreshFrames frames;
+    // the arrival-time offset it falls back on is refreshed every frame.
+    if (estimate_.source != ClockOffsetEstimate::Source::kCorrelation ||
+        ++frames_since_estimate_ >= kCorrelationRefreshFrames) {
+      estimate_ = estimator_.estimate();
+      frames_since_estimate_ = 0;
+    }
     const double offset = imu_to_frame_offset();
     std::vector<ImuSample> mapped = *raw;
     for (ImuSample& s : mapped) s.timestamp += offset;
@@ -111,6 +118,8 @@ class LiveImu {
   ClockOffsetEstimator estimator_;
   HostClockMapper frame_clock_;
   ClockOffsetEstimate estimate_;
+  static constexpr int kCorrelationRefreshFrames = 30;  // ~1 s at 30 Hz; the offset drifts far slower
+  int frames_since_estimate_ = 0;
   std::optional<std::pair<double, Eigen::Isometry3d>> previous_;  // last reliable frame: time, T_world_camera
 };
 
