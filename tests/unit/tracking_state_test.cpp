@@ -82,10 +82,20 @@ TEST(TrackingStateMachine, SetbackDuringRecoveryStartsTheCountAgain) {
   expect(m.step(true, true), TrackingStatus::kTracking, PoseSource::kIcp, true);
 }
 
-TEST(TrackingStateMachine, RecoveringUnconvergedFallsBackToLost) {
+TEST(TrackingStateMachine, RecoveringReliableButUnconvergedHoldsTheCount) {
   auto m = lost_machine(3);
   m.step(true, true);
-  expect(m.step(true, false), TrackingStatus::kLost, PoseSource::kDeadReckoning, false);
+  auto held = m.step(true, false);
+  expect(held, TrackingStatus::kRecovering, PoseSource::kIcp, false);
+  EXPECT_EQ(held.good_frames, 1);
+  EXPECT_EQ(m.step(true, true).good_frames, 2);
+  expect(m.step(true, true), TrackingStatus::kTracking, PoseSource::kIcp, true);
+}
+
+TEST(TrackingStateMachine, RecoveringUnreliableFallsBackToLost) {
+  auto m = lost_machine(3);
+  m.step(true, true);
+  expect(m.step(false, true), TrackingStatus::kLost, PoseSource::kDeadReckoning, false);
 }
 
 TEST(TrackingStateMachine, OneRecoveryFrameResumesFusionAtOnce) {

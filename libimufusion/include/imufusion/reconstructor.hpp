@@ -59,9 +59,10 @@ struct ReconstructorConfig {
   /// misaligned.
   double depth_noise_a = 0.0012, depth_noise_b = 0.0019, depth_noise_z0 = 0.4;
   /// Convergence (per-step rotation, rad, and translation, m) that counts while lost or
-  /// recovering: an update below it means ICP has settled onto the model.
-  double recovery_converged_rotation = 1e-4;
-  double recovery_converged_translation = 1e-4;
+  /// recovering: an update below it means ICP has settled onto the model (1 mm / 0.06 deg per
+  /// step is below what ICP resolves on noisy depth; tighter, noise keeps it from settling).
+  double recovery_converged_rotation = 1e-3;
+  double recovery_converged_translation = 1e-3;
   /// T_world_camera of the first frame (metres).
   Eigen::Isometry3d initial_pose = Eigen::Isometry3d::Identity();
 

@@ -8,7 +8,8 @@
 //   lost       --ICP unreliable-->                    lost         pose: dead reckoning, not fused
 //   lost       --ICP reliable and converged-->        recovering   pose: ICP,   not fused
 //   recovering --reliable and converged, k-th time--> tracking once k == recovery_frames, fused
-//   recovering --anything else-->                     lost         pose: dead reckoning, not fused
+//   recovering --reliable, not converged-->           recovering   pose: ICP (count unchanged)
+//   recovering --ICP unreliable-->                    lost         pose: dead reckoning, not fused
 //
 // The first frame of a scan (or after reset) defines the world: status tracking, pose source
 // `initial`, fused. Dead reckoning means M_{t-1} * dIMU: the previous pose moved by the IMU's

@@ -55,7 +55,11 @@ TrackingDecision TrackingStateMachine::step(bool icp_reliable, bool converged) {
     }
     return d;
   }
-  // Lost or recovering: only a reliable alignment that has settled counts towards recovery.
+  // Lost or recovering: only a reliable alignment that has settled counts towards recovery. While
+  // recovering, a reliable frame that has not settled within its iterations neither counts nor
+  // breaks the count; an unreliable one does.
+  if (status_ == TrackingStatus::kRecovering && icp_reliable && !converged)
+    return {TrackingStatus::kRecovering, PoseSource::kIcp, false, good_frames_, false};
   if (!(icp_reliable && converged)) {
     status_ = TrackingStatus::kLost;
     good_frames_ = 0;
