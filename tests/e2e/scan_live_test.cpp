@@ -24,7 +24,7 @@
 
 #include "imufusion/sequence.hpp"
 #include "imufusion/synth.hpp"
-#include "tool_runner.hpp"
+#include "scan_test_fixtures.hpp"
 
 namespace imufusion {
 namespace {
@@ -32,21 +32,10 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-const fs::path kTool = fs::path(IMUFUSION_TEST_BINARY_DIR) / "tools" / "imufusion-scan";
-
-nlohmann::json read_json(const fs::path& path) { return nlohmann::json::parse(test::read_text(path)); }
+using test::read_json;
 
 fs::path synthesize(const fs::path& root, const std::string& name, int frames, std::uint64_t seed) {
-  synth::SynthConfig config;
-  config.scene = synth::SceneKind::kRoom;
-  config.seed = seed;
-  config.width = 160;
-  config.height = 120;
-  config.frames = frames;
-  const fs::path dir = root / name;
-  auto summary = synth::synthesize(config, dir);
-  EXPECT_TRUE(summary.ok()) << summary.error().describe();
-  return dir;
+  return test::synthesize_small(root, name, synth::SceneKind::kRoom, frames, seed);
 }
 
 std::size_t tracked_frames(const nlohmann::json& summary) {
@@ -69,13 +58,9 @@ std::uint16_t free_udp_port() {
   return ntohs(addr.sin_port);
 }
 
-class ScanLive : public ::testing::Test {
+class ScanLive : public test::ScanToolTest {
  protected:
-  void SetUp() override { ASSERT_TRUE(fs::exists(kTool)) << kTool << " was not built"; }
-  test::ToolRun scan(const std::string& args) { return test::run_tool(kTool, args, scratch_.path()); }
-  fs::path path(const std::string& name) const { return scratch_.path() / name; }
-
-  test::ScratchDir scratch_{"imufusion_scan_live_"};
+  ScanLive() : ScanToolTest("imufusion_scan_live_") {}
 };
 
 TEST_F(ScanLive, RecordsASequenceThatReadsBackAndScansTheSame) {

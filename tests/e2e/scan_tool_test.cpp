@@ -16,14 +16,12 @@
 #include "imufusion/mesh.hpp"
 #include "imufusion/synth.hpp"
 #include "imufusion/trajectory.hpp"
-#include "tool_runner.hpp"
+#include "scan_test_fixtures.hpp"
 
 namespace imufusion {
 namespace {
 
 namespace fs = std::filesystem;
-
-const fs::path kTool = fs::path(IMUFUSION_TEST_BINARY_DIR) / "tools" / "imufusion-scan";
 
 using Row = std::map<std::string, std::string>;
 
@@ -51,29 +49,16 @@ std::vector<Row> read_csv(const fs::path& path) {
   return rows;
 }
 
-nlohmann::json read_json(const fs::path& path) { return nlohmann::json::parse(test::read_text(path)); }
+using test::read_json;
 
 fs::path synthesize(const fs::path& root, const std::string& name, synth::SceneKind scene, int frames,
                     std::uint64_t seed) {
-  synth::SynthConfig config;
-  config.scene = scene;
-  config.seed = seed;
-  config.width = 160;
-  config.height = 120;
-  config.frames = frames;
-  const fs::path dir = root / name;
-  auto summary = synth::synthesize(config, dir);
-  EXPECT_TRUE(summary.ok()) << summary.error().describe();
-  return dir;
+  return test::synthesize_small(root, name, scene, frames, seed);
 }
 
-class ScanTool : public ::testing::Test {
+class ScanTool : public test::ScanToolTest {
  protected:
-  void SetUp() override { ASSERT_TRUE(fs::exists(kTool)) << kTool << " was not built"; }
-  test::ToolRun scan(const std::string& args) { return test::run_tool(kTool, args, scratch_.path()); }
-  fs::path path(const std::string& name) const { return scratch_.path() / name; }
-
-  test::ScratchDir scratch_{"imufusion_scan_"};
+  ScanTool() : ScanToolTest("imufusion_scan_") {}
 };
 
 TEST_F(ScanTool, ScansARoomWithTheImuAndWritesEveryOutput) {
