@@ -2,8 +2,10 @@
 // One interface for every depth input a scanner reads: a recorded sequence directory, a live
 // OpenNI2 camera (`openni2://` for the first device, `openni2://URI` for a given one) and an
 // OpenNI2 recording (`FILE.oni`). Sources hand out Frames (sequence.hpp) with timestamps in
-// seconds: the sequence's own clock for sequences and .oni recordings, the host clock
-// (host_clock_now() of imu_stream.hpp) for live cameras.
+// seconds: the sequence's own clock for sequences, the recorded device timestamps
+// (microseconds) as seconds for .oni recordings, the host clock (host_clock_now() of
+// imu_stream.hpp) for live cameras. A .oni recording plays every depth frame in file order,
+// each with the recorded colour frame nearest to it in time.
 
 #include <memory>
 #include <optional>
@@ -32,7 +34,7 @@ struct SourceOptions {
   /// Colour frames, registered to depth when the device can; off saves bandwidth and decoding.
   bool color = true;
   /// Recordings (sequence, .oni): deliver frames at their recorded pace instead of as fast as
-  /// next() is called.
+  /// next() is called. No frame is dropped: frames taken late are handed out at once.
   bool realtime = false;
   /// Live cameras: seconds without a depth frame after which next() reports the camera lost.
   double frame_timeout = 2.0;

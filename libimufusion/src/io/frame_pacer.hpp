@@ -10,22 +10,30 @@ namespace imufusion::io {
 
 class FramePacer {
  public:
-  /// Sleeps until the frame stamped `timestamp` is due.
-  void wait_for(double timestamp) {
-    const auto now = std::chrono::steady_clock::now();
+  using Clock = std::chrono::steady_clock;
+
+  /// When the frame stamped `timestamp`, read at `now`, is due: the first frame at once (it
+  /// anchors the schedule), every later one at the first one's time plus the recorded interval
+  /// since it. A frame read late is due in the past; the schedule does not move.
+  Clock::time_point due(double timestamp, Clock::time_point now) {
     if (!first_) {
       first_ = timestamp;
       start_ = now;
-      return;
     }
-    const auto due = start_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                  std::chrono::duration<double>(timestamp - *first_));
-    if (due > now) std::this_thread::sleep_until(due);
+    return start_ + std::chrono::duration_cast<Clock::duration>(
+                        std::chrono::duration<double>(timestamp - *first_));
+  }
+
+  /// Sleeps until the frame stamped `timestamp` is due.
+  void wait_for(double timestamp) {
+    const auto now = Clock::now();
+    const auto at = due(timestamp, now);
+    if (at > now) std::this_thread::sleep_until(at);
   }
 
  private:
   std::optional<double> first_;
-  std::chrono::steady_clock::time_point start_;
+  Clock::time_point start_;
 };
 
 }  // namespace imufusion::io

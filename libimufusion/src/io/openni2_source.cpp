@@ -10,10 +10,12 @@
 #include <atomic>
 #include <cmath>
 #include <cstring>
+#include <deque>
 #include <mutex>
 
 #include "imufusion/clock_offset.hpp"
 #include "imufusion/imu_stream.hpp"
+#include "io/frame_pacer.hpp"
 
 namespace imufusion {
 namespace io {
@@ -109,8 +111,19 @@ class OpenNI2Source final : public FrameSource {
  private:
   Status choose_depth_mode();
   void open_color();
-  Result<bool> wait_for_depth(int timeout_ms);
+  int timeout_ms() const { return static_cast<int>(std::lround(options_.frame_timeout * 1000.0)); }
+  Result<bool> wait_for_depth();
   void read_color_until(double device_time, Frame* frame);
+  Result<std::optional<Frame>> next_live();
+  // Recordings: frames are read in file order into queues, so that each depth frame can be
+  // paired with the colour frame nearest to it whichever of the two the file holds first.
+  Result<std::optional<Frame>> next_recorded();
+  Result<bool> read_recorded();
+  bool color_done() const { return color_frames_ > 0 && color_read_ >= color_frames_; }
+  void pair_recorded_color(double device_time, Frame* frame);
+  // A depth frame as a Frame (index, timestamp and colour left to the caller); nullopt for a
+  // frame that is not a new frame of the stream (a repeated stamp, another mode).
+  std::optional<Frame> depth_frame(const openni::VideoFrameRef& ref);
 
   std::string name_;  // the input as given: "openni2://URI" or the .oni path
   bool is_file_;
@@ -121,7 +134,11 @@ class OpenNI2Source final : public FrameSource {
   bool has_color_ = false;
   std::unique_ptr<DisconnectWatch> watch_;
   openni::PlaybackControl* playback_ = nullptr;
-  int total_frames_ = 0;
+  int total_frames_ = 0;  // depth frames in the recording; 0 when it does not say
+  int color_frames_ = 0;  // colour frames in the recording; 0 when it does not say
+  int depth_read_ = 0, color_read_ = 0;
+  std::deque<openni::VideoFrameRef> depth_queue_, color_queue_;
+  FramePacer pacer_;  // recordings with options_.realtime
   std::size_t delivered_ = 0;
   double last_device_time_ = -1.0;
   double last_host_time_ = -1.0;
@@ -192,6 +209,7 @@ void OpenNI2Source::open_color() {
     return;
   }
   has_color_ = true;
+  if (playback_ != nullptr) color_frames_ = std::max(0, playback_->getNumberOfFrames(color_));
 }
 
 Status OpenNI2Source::open() {
@@ -230,12 +248,18 @@ Status OpenNI2Source::open() {
       return make_error(ErrorCode::kParseError, name_ + ": not a playable OpenNI2 recording");
     }
     playback_->setRepeatEnabled(false);
-    // -1: every frame as soon as it is asked for; 1: the recorded pace.
-    playback_->setSpeed(options_.realtime ? 1.0f : -1.0f);
-    total_frames_ = playback_->getNumberOfFrames(depth_);
-    if (total_frames_ <= 0) {
+    // -1 (manual): the player reads the next record only when a stream is waited on, so no
+    // frame is ever dropped. At any positive speed it reads on by itself at that pace and a
+    // stream keeps only its newest frame: a consumer slower than the recording loses frames.
+    // --realtime is therefore paced here (pacer_), on the recorded timestamps.
+    playback_->setSpeed(-1.0f);
+    // A recording whose recorder was never closed has no frame count (OpenNI2 reports -1):
+    // it plays until its data ends.
+    const int frames = playback_->getNumberOfFrames(depth_);
+    if (frames == 0) {
       return make_error(ErrorCode::kParseError, name_ + ": the recording holds no depth frame");
     }
+    total_frames_ = std::max(0, frames);
   } else {
     IMUFUSION_RETURN_IF_ERROR(choose_depth_mode());
     watch_ = std::make_unique<DisconnectWatch>(info.getUri());
@@ -271,14 +295,33 @@ Status OpenNI2Source::open() {
   return {};
 }
 
-Result<bool> OpenNI2Source::wait_for_depth(int timeout_ms) {
+Result<bool> OpenNI2Source::wait_for_depth() {
   openni::VideoStream* streams[] = {&depth_};
   int ready = -1;
-  const openni::Status status = openni::OpenNI::waitForAnyStream(streams, 1, &ready, timeout_ms);
+  const openni::Status status = openni::OpenNI::waitForAnyStream(streams, 1, &ready, timeout_ms());
   if (status == openni::STATUS_OK) return true;
   if (status == openni::STATUS_TIME_OUT) return false;
-  return make_error(is_file_ ? ErrorCode::kParseError : ErrorCode::kDeviceLost,
+  return make_error(ErrorCode::kDeviceLost,
                     name_ + ": waiting for a depth frame failed: " + openni_error());
+}
+
+ColorImage color_image(const openni::VideoFrameRef& ref) {
+  ColorImage color;
+  color.width = ref.getWidth();
+  color.height = ref.getHeight();
+  color.data.resize(static_cast<std::size_t>(color.width) * color.height * 3);
+  const auto* bytes = static_cast<const std::uint8_t*>(ref.getData());
+  const std::size_t row = static_cast<std::size_t>(color.width) * 3;
+  for (int v = 0; v < color.height; ++v) {
+    std::memcpy(color.data.data() + v * row,
+                bytes + static_cast<std::size_t>(v) * ref.getStrideInBytes(), row);
+  }
+  return color;
+}
+
+// Device clock, microseconds, as seconds.
+double stamp_of(const openni::VideoFrameRef& ref) {
+  return static_cast<double>(ref.getTimestamp()) * 1e-6;
 }
 
 void OpenNI2Source::read_color_until(double device_time, Frame* frame) {
@@ -290,84 +333,139 @@ void OpenNI2Source::read_color_until(double device_time, Frame* frame) {
   while (openni::OpenNI::waitForAnyStream(streams, 1, &ready, 0) == openni::STATUS_OK) {
     if (color_.readFrame(&ref) != openni::STATUS_OK) break;
     have = true;
-    if (static_cast<double>(ref.getTimestamp()) * 1e-6 >= device_time) break;
+    if (stamp_of(ref) >= device_time) break;
   }
   if (!have || ref.getWidth() != intrinsics_.width || ref.getHeight() != intrinsics_.height) {
     return;
   }
-  ColorImage color;
-  color.width = ref.getWidth();
-  color.height = ref.getHeight();
-  color.data.resize(static_cast<std::size_t>(color.width) * color.height * 3);
+  frame->color = color_image(ref);
+  frame->color_timestamp = clock_.to_host(stamp_of(ref));
+}
+
+std::optional<Frame> OpenNI2Source::depth_frame(const openni::VideoFrameRef& ref) {
+  const double device_time = stamp_of(ref);
+  const double scale = depth_scale_of(ref.getVideoMode().getPixelFormat());
+  if (device_time <= last_device_time_ || scale == 0.0 || ref.getWidth() != intrinsics_.width ||
+      ref.getHeight() != intrinsics_.height) {
+    return std::nullopt;
+  }
+  last_device_time_ = device_time;
+  Frame frame;
+  frame.index = delivered_++;
+  frame.depth.width = ref.getWidth();
+  frame.depth.height = ref.getHeight();
+  frame.depth.depth_scale = scale;
+  frame.depth.data.resize(static_cast<std::size_t>(frame.depth.width) * frame.depth.height);
   const auto* bytes = static_cast<const std::uint8_t*>(ref.getData());
-  const std::size_t row = static_cast<std::size_t>(color.width) * 3;
-  for (int v = 0; v < color.height; ++v) {
-    std::memcpy(color.data.data() + v * row,
+  const std::size_t row = static_cast<std::size_t>(frame.depth.width) * sizeof(std::uint16_t);
+  for (int v = 0; v < frame.depth.height; ++v) {
+    std::memcpy(frame.depth.data.data() + static_cast<std::size_t>(v) * frame.depth.width,
                 bytes + static_cast<std::size_t>(v) * ref.getStrideInBytes(), row);
   }
-  const double stamp = static_cast<double>(ref.getTimestamp()) * 1e-6;
-  frame->color = std::move(color);
-  frame->color_timestamp = is_file_ ? stamp : clock_.to_host(stamp);
+  return frame;
 }
 
 Result<std::optional<Frame>> OpenNI2Source::next() {
+  return is_file_ ? next_recorded() : next_live();
+}
+
+Result<std::optional<Frame>> OpenNI2Source::next_live() {
   while (true) {
-    if (is_file_ && delivered_ >= static_cast<std::size_t>(total_frames_)) {
-      return std::optional<Frame>();
-    }
     if (watch_ && watch_->lost()) {
       return make_error(ErrorCode::kDeviceLost, description_ + ": camera disconnected");
     }
-    const int timeout_ms = static_cast<int>(std::lround(options_.frame_timeout * 1000.0));
-    auto ready = wait_for_depth(timeout_ms);
+    auto ready = wait_for_depth();
     if (!ready.ok()) return ready.error();
     if (!*ready) {
-      if (is_file_) {
-        return make_error(ErrorCode::kParseError,
-                          name_ + ": no depth frame after frame " + std::to_string(delivered_) +
-                              " of " + std::to_string(total_frames_) + " (truncated recording?)");
-      }
       return make_error(ErrorCode::kDeviceLost,
                         description_ + ": no depth frame for " +
                             std::to_string(options_.frame_timeout) + " s (camera unplugged?)");
     }
     openni::VideoFrameRef ref;
     if (depth_.readFrame(&ref) != openni::STATUS_OK) {
-      return make_error(is_file_ ? ErrorCode::kParseError : ErrorCode::kDeviceLost,
+      return make_error(ErrorCode::kDeviceLost,
                         name_ + ": reading a depth frame failed: " + openni_error());
     }
-    ++delivered_;
-    // Device clock, microseconds.
-    const double device_time = static_cast<double>(ref.getTimestamp()) * 1e-6;
-    const double scale = depth_scale_of(ref.getVideoMode().getPixelFormat());
-    if (device_time <= last_device_time_ || scale == 0.0 || ref.getWidth() != intrinsics_.width ||
-        ref.getHeight() != intrinsics_.height) {
-      continue;  // a repeated stamp or a frame of another mode: not a new frame of this stream
+    std::optional<Frame> frame = depth_frame(ref);
+    if (!frame) continue;
+    // The mapping's offset may drop by more than a frame interval after a delayed first
+    // frame; stamps stay strictly increasing (1 us apart at worst) as a Frame requires.
+    frame->timestamp =
+        std::max(clock_.observe(host_clock_now(), stamp_of(ref)), last_host_time_ + 1e-6);
+    last_host_time_ = frame->timestamp;
+    if (has_color_) read_color_until(stamp_of(ref), &*frame);
+    return frame;
+  }
+}
+
+Result<bool> OpenNI2Source::read_recorded() {
+  // In manual playback each wait lets the player read one more record, so a frame waits in its
+  // stream until it is read here and none is overwritten.
+  openni::VideoStream* streams[] = {&depth_, &color_};
+  const int count = has_color_ && !color_done() ? 2 : 1;
+  int ready = -1;
+  const openni::Status status =
+      openni::OpenNI::waitForAnyStream(streams, count, &ready, timeout_ms());
+  if (status == openni::STATUS_TIME_OUT) return false;
+  openni::VideoFrameRef ref;
+  if (status != openni::STATUS_OK || ready < 0 || ready >= count ||
+      streams[ready]->readFrame(&ref) != openni::STATUS_OK) {
+    return make_error(ErrorCode::kParseError,
+                      name_ + ": reading frame " + std::to_string(depth_read_ + color_read_ + 1) +
+                          " of the recording failed: " + openni_error());
+  }
+  if (ready == 0) {
+    ++depth_read_;
+    depth_queue_.push_back(ref);
+  } else {
+    ++color_read_;
+    color_queue_.push_back(ref);
+  }
+  return true;
+}
+
+void OpenNI2Source::pair_recorded_color(double device_time, Frame* frame) {
+  // Colour frames come in file order: read on until one is stamped at or after the depth
+  // frame, unless the colour stream has ended or two later depth frames are already queued
+  // (colour lagging that far has no closer partner than what was read).
+  while ((color_queue_.empty() || stamp_of(color_queue_.back()) < device_time) &&
+         !color_done() && depth_queue_.size() < 2) {
+    auto more = read_recorded();
+    if (!more.ok() || !*more) break;  // the depth stream reports the end or the error
+  }
+  // The nearest one; those before it are farther from every later depth frame too.
+  while (color_queue_.size() >= 2 && std::abs(stamp_of(color_queue_[1]) - device_time) <=
+                                         std::abs(stamp_of(color_queue_[0]) - device_time)) {
+    color_queue_.pop_front();
+  }
+  if (color_queue_.empty()) return;
+  const openni::VideoFrameRef& ref = color_queue_.front();
+  if (ref.getWidth() != intrinsics_.width || ref.getHeight() != intrinsics_.height) return;
+  frame->color = color_image(ref);
+  frame->color_timestamp = stamp_of(ref);
+}
+
+Result<std::optional<Frame>> OpenNI2Source::next_recorded() {
+  while (true) {
+    while (depth_queue_.empty()) {
+      if (total_frames_ > 0 && depth_read_ >= total_frames_) return std::optional<Frame>();
+      auto more = read_recorded();
+      if (!more.ok()) return more.error();
+      if (!*more) {
+        const std::string of = total_frames_ > 0 ? " of " + std::to_string(total_frames_) : "";
+        return make_error(ErrorCode::kParseError,
+                          name_ + ": no depth frame after frame " + std::to_string(depth_read_) +
+                              of + " (truncated recording?)");
+      }
     }
-    last_device_time_ = device_time;
-    Frame frame;
-    frame.index = delivered_ - 1;
-    if (is_file_) {
-      frame.timestamp = device_time;
-    } else {
-      // The mapping's offset may drop by more than a frame interval after a delayed first
-      // frame; stamps stay strictly increasing (1 us apart at worst) as a Frame requires.
-      frame.timestamp = std::max(clock_.observe(host_clock_now(), device_time),
-                                 last_host_time_ + 1e-6);
-      last_host_time_ = frame.timestamp;
-    }
-    frame.depth.width = ref.getWidth();
-    frame.depth.height = ref.getHeight();
-    frame.depth.depth_scale = scale;
-    frame.depth.data.resize(static_cast<std::size_t>(frame.depth.width) * frame.depth.height);
-    const auto* bytes = static_cast<const std::uint8_t*>(ref.getData());
-    const std::size_t row = static_cast<std::size_t>(frame.depth.width) * sizeof(std::uint16_t);
-    for (int v = 0; v < frame.depth.height; ++v) {
-      std::memcpy(frame.depth.data.data() + static_cast<std::size_t>(v) * frame.depth.width,
-                  bytes + static_cast<std::size_t>(v) * ref.getStrideInBytes(), row);
-    }
-    if (has_color_) read_color_until(device_time, &frame);
-    return std::optional<Frame>(std::move(frame));
+    const openni::VideoFrameRef ref = depth_queue_.front();
+    depth_queue_.pop_front();
+    std::optional<Frame> frame = depth_frame(ref);
+    if (!frame) continue;
+    frame->timestamp = stamp_of(ref);  // the recording's clock
+    if (has_color_) pair_recorded_color(frame->timestamp, &*frame);
+    if (options_.realtime) pacer_.wait_for(frame->timestamp);
+    return frame;
   }
 }
 
