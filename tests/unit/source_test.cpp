@@ -5,6 +5,7 @@
 #include <random>
 
 #include "../support/oni_writer.hpp"
+#include "imufusion/imu_stream.hpp"
 #include "imufusion/sequence.hpp"
 #include "imufusion/source.hpp"
 #include "imufusion/synth.hpp"
@@ -313,6 +314,81 @@ TEST(OniPlayback, AnInterruptedRecordingPlaysItsCompleteFramesThenFails) {
   EXPECT_NE(end.error().message.find("interrupted.oni"), std::string::npos)
       << end.error().message;
   EXPECT_NE(end.error().message.find("after frame 6"), std::string::npos) << end.error().message;
+}
+
+// OpenNI2's DummyDevice driver (Debian: libopenni2-0) is a software camera at URI "Dummy":
+// 320x240@30 depth (1 mm; a top row at 2000 mm and a small moving disc) and RGB888 colour. It
+// reports no field of view and cannot change modes. Its streams do not stop their threads when
+// destroyed (a thread may run on into the freed stream for up to 33 ms), so the camera opened
+// here is left open until the process ends.
+TEST(OpenNI2Camera, TheDummyDeviceStreamsLiveFramesOnTheHostClock) {
+  SourceOptions options;
+  options.depth_mode = DepthMode{320, 240, 30};
+  auto source = open_frame_source("openni2://Dummy", options);
+  if (!openni2_available()) {
+    ASSERT_FALSE(source.ok());
+    EXPECT_EQ(source.error().code, ErrorCode::kUnsupported);
+    return;
+  }
+  if (!source.ok() && source.error().code == ErrorCode::kNoDevice) {
+    GTEST_SKIP() << "OpenNI2's DummyDevice driver is not installed: " << source.error().message;
+  }
+  // No field of view: the intrinsics must be given.
+  ASSERT_FALSE(source.ok());
+  EXPECT_EQ(source.error().code, ErrorCode::kUnsupported) << source.error().describe();
+  EXPECT_NE(source.error().message.find("field of view"), std::string::npos);
+  EXPECT_NE(source.error().message.find("openni2://Dummy"), std::string::npos);
+
+  options.depth_mode = DepthMode{};  // 640x480@30, which it does not have
+  options.intrinsics = Intrinsics{};
+  options.intrinsics->fx = options.intrinsics->fy = 262.5;
+  options.intrinsics->cx = 159.5;
+  options.intrinsics->cy = 119.5;
+  source = open_frame_source("openni2://Dummy", options);
+  ASSERT_FALSE(source.ok());
+  EXPECT_EQ(source.error().code, ErrorCode::kUnsupported);
+  EXPECT_NE(source.error().message.find("320x240@30"), std::string::npos)
+      << source.error().message;
+
+  options.depth_mode = DepthMode{320, 240, 30};
+  const double opened_at = host_clock_now();
+  source = open_frame_source("openni2://Dummy", options);
+  ASSERT_TRUE(source.ok()) << source.error().describe();
+  FrameSource& camera = *source->release();  // left open, see above
+  EXPECT_TRUE(camera.live());
+  EXPECT_NE(camera.description().find("openni2://Dummy"), std::string::npos);
+  EXPECT_EQ(camera.intrinsics().width, 320);
+  EXPECT_EQ(camera.intrinsics().height, 240);
+  EXPECT_EQ(camera.intrinsics().fx, 262.5);
+  EXPECT_EQ(camera.intrinsics().cy, 119.5);
+  double previous = -1.0;
+  int with_color = 0;
+  for (std::size_t i = 0; i < 10; ++i) {
+    auto frame = camera.next();
+    ASSERT_TRUE(frame.ok()) << frame.error().describe();
+    ASSERT_TRUE(frame->has_value());
+    const Frame& f = **frame;
+    EXPECT_EQ(f.index, i);
+    // Device stamps mapped onto the host clock: after the camera was opened, no later than
+    // now, strictly increasing.
+    EXPECT_GT(f.timestamp, opened_at);
+    EXPECT_LE(f.timestamp, host_clock_now());
+    EXPECT_GT(f.timestamp, previous);
+    previous = f.timestamp;
+    ASSERT_EQ(f.depth.width, 320);
+    ASSERT_EQ(f.depth.height, 240);
+    EXPECT_EQ(f.depth.depth_scale, 1000.0);
+    for (int u = 0; u < 320; ++u) ASSERT_EQ(f.depth.at(u, 0), 2000) << u;
+    if (f.color) {
+      ++with_color;
+      ASSERT_EQ(f.color->width, 320);
+      ASSERT_EQ(f.color->height, 240);
+      EXPECT_EQ(f.color->data[2], 255);  // the driver's marker: pixel 0 blue
+      EXPECT_LE(f.color_timestamp, host_clock_now());
+    }
+  }
+  // Its colour thread starts a frame interval after the depth thread, then keeps pace.
+  EXPECT_GT(with_color, 0);
 }
 
 TEST(FramePacer, SchedulesFramesAtTheirRecordedIntervalsFromTheFirst) {

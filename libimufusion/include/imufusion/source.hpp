@@ -36,7 +36,13 @@ struct SourceOptions {
   /// Recordings (sequence, .oni): deliver frames at their recorded pace instead of as fast as
   /// next() is called. No frame is dropped: frames taken late are handed out at once.
   bool realtime = false;
-  /// Live cameras: seconds without a depth frame after which next() reports the camera lost.
+  /// OpenNI2 cameras and recordings: depth intrinsics (pixels) to use instead of those derived
+  /// from the stream's fields of view with the principal point at the image centre; needed
+  /// for a device that reports no field of view, better for any calibrated camera. width and
+  /// height are ignored (the stream's are used).
+  std::optional<Intrinsics> intrinsics;
+  /// Seconds without a depth frame after which next() reports a live camera lost, or an .oni
+  /// recording truncated.
   double frame_timeout = 2.0;
   /// Sequence directories: passed to SequenceReader::open (colour loading follows `color`).
   SequenceOptions sequence;

@@ -52,6 +52,16 @@ void release_openni() {
   if (--g_openni_users == 0) openni::OpenNI::shutdown();
 }
 
+bool same_mode(const openni::VideoMode& a, const openni::VideoMode& b) {
+  return a.getResolutionX() == b.getResolutionX() && a.getResolutionY() == b.getResolutionY() &&
+         a.getFps() == b.getFps() && a.getPixelFormat() == b.getPixelFormat();
+}
+
+// Sets `mode` unless the stream is in it already (a driver may refuse to set any mode).
+bool set_mode(openni::VideoStream& stream, const openni::VideoMode& mode) {
+  return same_mode(stream.getVideoMode(), mode) || stream.setVideoMode(mode) == openni::STATUS_OK;
+}
+
 std::string describe_mode(const openni::VideoMode& mode) {
   return std::to_string(mode.getResolutionX()) + "x" + std::to_string(mode.getResolutionY()) +
          "@" + std::to_string(mode.getFps());
@@ -110,6 +120,7 @@ class OpenNI2Source final : public FrameSource {
 
  private:
   Status choose_depth_mode();
+  Status intrinsics_from_fov();
   void open_color();
   int timeout_ms() const { return static_cast<int>(std::lround(options_.frame_timeout * 1000.0)); }
   Result<bool> wait_for_depth();
@@ -169,7 +180,7 @@ Status OpenNI2Source::choose_depth_mode() {
     return make_error(ErrorCode::kUnsupported, name_ + ": the camera has no depth mode " +
                                                    wanted + " (it has: " + available + ")");
   }
-  if (depth_.setVideoMode(modes[best]) != openni::STATUS_OK) {
+  if (!set_mode(depth_, modes[best])) {
     return make_error(ErrorCode::kIoError,
                       name_ + ": cannot set depth mode " + wanted + ": " + openni_error());
   }
@@ -189,7 +200,7 @@ void OpenNI2Source::open_color() {
           mode.getResolutionX() == options_.depth_mode.width &&
           mode.getResolutionY() == options_.depth_mode.height &&
           mode.getFps() == options_.depth_mode.fps) {
-        set = color_.setVideoMode(mode) == openni::STATUS_OK;
+        set = set_mode(color_, mode);
       }
     }
     if (!set) {
@@ -273,6 +284,29 @@ Status OpenNI2Source::open() {
   }
   intrinsics_.width = mode.getResolutionX();
   intrinsics_.height = mode.getResolutionY();
+  if (options_.intrinsics) {
+    const Intrinsics& k = *options_.intrinsics;
+    if (!(k.fx > 0.0 && k.fy > 0.0 && std::isfinite(k.cx) && std::isfinite(k.cy))) {
+      return make_error(ErrorCode::kInvalidArgument,
+                        name_ + ": the intrinsics given have a non-positive focal length (fx " +
+                            std::to_string(k.fx) + ", fy " + std::to_string(k.fy) + ")");
+    }
+    intrinsics_.fx = k.fx;
+    intrinsics_.fy = k.fy;
+    intrinsics_.cx = k.cx;
+    intrinsics_.cy = k.cy;
+  } else {
+    IMUFUSION_RETURN_IF_ERROR(intrinsics_from_fov());
+  }
+  if (depth_.start() != openni::STATUS_OK) {
+    return make_error(is_file_ ? ErrorCode::kParseError : ErrorCode::kIoError,
+                      name_ + ": cannot start the depth stream: " + openni_error());
+  }
+  open_color();
+  return {};
+}
+
+Status OpenNI2Source::intrinsics_from_fov() {
   // OpenNI2 reports the depth camera's fields of view (radians); the principal point is taken
   // at the image centre, as OpenNI2's own depth-to-world conversion does.
   const double hfov = depth_.getHorizontalFieldOfView();
@@ -281,17 +315,13 @@ Status OpenNI2Source::open() {
       intrinsics_.height <= 0) {
     return make_error(ErrorCode::kUnsupported,
                       name_ + ": the depth stream reports no usable field of view (" +
-                          std::to_string(hfov) + ", " + std::to_string(vfov) + " rad)");
+                          std::to_string(hfov) + ", " + std::to_string(vfov) +
+                          " rad); give its intrinsics instead");
   }
   intrinsics_.fx = 0.5 * intrinsics_.width / std::tan(0.5 * hfov);
   intrinsics_.fy = 0.5 * intrinsics_.height / std::tan(0.5 * vfov);
   intrinsics_.cx = 0.5 * (intrinsics_.width - 1);
   intrinsics_.cy = 0.5 * (intrinsics_.height - 1);
-  if (depth_.start() != openni::STATUS_OK) {
-    return make_error(is_file_ ? ErrorCode::kParseError : ErrorCode::kIoError,
-                      name_ + ": cannot start the depth stream: " + openni_error());
-  }
-  open_color();
   return {};
 }
 
