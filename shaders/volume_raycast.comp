@@ -16,40 +16,76 @@ layout(std430, set = 0, binding = 9) writeonly buffer Steps { uint steps[]; };  
 layout(push_constant) uniform Push { VolumeRaycastParams p; };
 
 #include "volume_common.glsl"
+#include "volume_raycast_rule.h"
 
-// The packed (tsdf, weight) word and its colour of the voxel at lattice point l, in pool block
-// `block` of block coordinate b, or in the block that holds l when it is not b.
-uint voxel_word(ivec3 l, ivec3 b, uint block, out uint index) {
-  ivec3 lb = l >> 3;  // floor(l / VOLUME_BLOCK_SIDE)
-  if (lb != b) block = find_block(lb, p.hash_mask);
-  if (block == VOLUME_NO_BLOCK) return 0u;  // weight 0: unobserved
-  ivec3 i = l - lb * VOLUME_BLOCK_SIDE;
-  index = block * uint(VOLUME_BLOCK_VOXELS) + uint(i.x + VOLUME_BLOCK_SIDE * (i.y + VOLUME_BLOCK_SIDE * i.z));
-  return tsdf_weight[index];
+// One-entry caches of block lookups: `home` for the block holding the sample point (consecutive
+// samples mostly stay in one block), `other` for lattice points in a neighbouring block.
+ivec3 home_coord = ivec3(0x7FFFFFFF);
+uint home_block = VOLUME_NO_BLOCK;
+ivec3 other_coord = ivec3(0x7FFFFFFF);
+uint other_block = VOLUME_NO_BLOCK;
+
+uint lookup_home(ivec3 b) {
+  if (b != home_coord) {
+    home_coord = b;
+    home_block = find_block(b, p.hash_mask);
+  }
+  return home_block;
 }
 
-// Trilinear TSDF at world point w (and the colour when with_color); false when a corner is
-// unobserved. `block` is the pool block of the block that holds floor(w / voxel_size), or
-// VOLUME_NO_BLOCK to look it up: the 8 corners usually lie in it (343 of 512 cells), and only
-// corners in a neighbouring block cost a lookup.
-bool sample_tsdf(vec3 w, uint block, bool with_color, out float tsdf, out vec3 rgb) {
-  vec3 g = w / p.voxel_size;
+// The pool index of lattice point l (world point l * voxel_size), or VOLUME_NO_BLOCK when its
+// block is unallocated. home_coord must be the block of the current sample.
+uint voxel_index(ivec3 l) {
+  ivec3 lb = l >> 3;  // floor(l / VOLUME_BLOCK_SIDE)
+  uint block = home_block;
+  if (lb != home_coord) {
+    if (lb != other_coord) {
+      other_coord = lb;
+      other_block = find_block(lb, p.hash_mask);
+    }
+    block = other_block;
+  }
+  if (block == VOLUME_NO_BLOCK) return VOLUME_NO_BLOCK;
+  ivec3 i = l & (VOLUME_BLOCK_SIDE - 1);
+  return block * uint(VOLUME_BLOCK_VOXELS) + uint(i.x + VOLUME_BLOCK_SIDE * (i.y + VOLUME_BLOCK_SIDE * i.z));
+}
+
+// Trilinear TSDF (truncation units) at lattice coordinates g = w / voxel_size; false when a
+// corner is unobserved. lookup_home(floor(g) >> 3) must have been called.
+bool trilinear_tsdf(vec3 g, out float tsdf) {
   ivec3 base = ivec3(floor(g));
   vec3 f = g - vec3(base);
-  ivec3 b = base >> 3;
-  if (block == VOLUME_NO_BLOCK) block = find_block(b, p.hash_mask);
   tsdf = 0.0;
-  rgb = vec3(0.0);
-  if (block == VOLUME_NO_BLOCK) return false;
   for (int c = 0; c < 8; ++c) {
     ivec3 o = ivec3(c & 1, (c >> 1) & 1, c >> 2);
-    uint index;
-    uint word0 = voxel_word(base + o, b, block, index);
+    uint index = voxel_index(base + o);
+    if (index == VOLUME_NO_BLOCK) return false;
+    uint word0 = tsdf_weight[index];
     if (unpack_weight(word0) == 0u) return false;
     vec3 s = mix(1.0 - f, f, vec3(o));
-    float weight = s.x * s.y * s.z;
-    tsdf += weight * unpack_tsdf(word0);
-    if (with_color) rgb += weight * unpackUnorm4x8(voxel_colors[index]).rgb;
+    tsdf += s.x * s.y * s.z * unpack_tsdf(word0);
+  }
+  return true;
+}
+
+// The gradient of the trilinear TSDF (truncation units per voxel) and the trilinear colour at
+// lattice coordinates g, from the 8 corners of its cell; false when a corner is unobserved.
+bool hit_cell(vec3 g, out vec3 gradient, out vec3 rgb) {
+  ivec3 base = ivec3(floor(g));
+  vec3 f = g - vec3(base);
+  lookup_home(base >> 3);
+  gradient = vec3(0.0);
+  rgb = vec3(0.0);
+  for (int c = 0; c < 8; ++c) {
+    ivec3 o = ivec3(c & 1, (c >> 1) & 1, c >> 2);
+    uint index = voxel_index(base + o);
+    if (index == VOLUME_NO_BLOCK) return false;
+    uint word0 = tsdf_weight[index];
+    if (unpack_weight(word0) == 0u) return false;
+    vec3 s = mix(1.0 - f, f, vec3(o));
+    vec3 sign = vec3(o) * 2.0 - 1.0;
+    gradient += unpack_tsdf(word0) * sign * vec3(s.y * s.z, s.x * s.z, s.x * s.y);
+    rgb += s.x * s.y * s.z * unpackUnorm4x8(voxel_colors[index]).rgb;
   }
   return true;
 }
@@ -78,34 +114,47 @@ void main() {
   float ray_scale = length(ray_c);  // metres along the ray per metre of depth
   vec3 dir = R * (ray_c / ray_scale);
   float block_length = p.voxel_size * float(VOLUME_BLOCK_SIDE);
-  float skip = 0.5 * block_length;
   float t_near = p.near_depth * ray_scale;
-  // The full march from t_near steps `skip` at a time through unallocated blocks, and every
-  // block on this ray lies within the cell's range: start at its last step before the range and
-  // stop past the range (see VolumeRangeParams).
+  // Unallocated blocks are left through their exit face, so the samples in allocated blocks do
+  // not depend on where the march starts: start at the cell's range (every block on this ray
+  // lies within it, see VolumeRangeParams) and stop past it.
   float t_range_lo = uintBitsToFloat(~lo_bits) * ray_scale;
   float t_range_hi = uintBitsToFloat(range[2u * cell + 1u]) * ray_scale;
-  float t = t_near + max(floor((t_range_lo - t_near) / skip), 0.0) * skip;
+  float t = max(t_near, t_range_lo);
+  // Per axis, the block face a ray leaves through (0: lower, 1: upper) and 1 / direction (a
+  // direction parallel to an axis never leaves through its faces).
+  vec3 exit_face = step(0.0, dir);
+  vec3 inverse_dir = mix(1.0 / dir, vec3(3.0e38), lessThan(abs(dir), vec3(1.0e-12)));
+  vec3 t_far_faces = mix(vec3(0.0), vec3(3.0e38), lessThan(abs(dir), vec3(1.0e-12)));
   float t_far = min(p.far_depth * ray_scale, t_range_hi);
   float previous_tsdf = 0.0;
   float previous_t = 0.0;
   bool have_previous = false;
+  float coarse_distance = VOLUME_RAYCAST_COARSE_VOXELS * p.voxel_size;  // metres
+  float coarse_margin = p.voxel_size;
   float hit_t = -1.0;
   uint step_count = 0u;
   while (t < t_far) {
     ++step_count;
-    vec3 w = origin + t * dir;
-    uint block = find_block(ivec3(floor(w / p.voxel_size)) >> 3, p.hash_mask);
-    if (block == VOLUME_NO_BLOCK) {
+    vec3 g = (origin + t * dir) / p.voxel_size;  // lattice coordinates of the sample
+    if (lookup_home(ivec3(floor(g)) >> 3) == VOLUME_NO_BLOCK) {
       have_previous = false;
-      t += skip;
+      vec3 t_faces = max((block_length * (vec3(home_coord) + exit_face) - origin) * inverse_dir, t_far_faces);
+      t = max(t, min(t_faces.x, min(t_faces.y, t_faces.z))) + VOLUME_RAYCAST_EXIT_MARGIN * p.voxel_size;
       continue;
     }
-    float tsdf;
-    vec3 unused;
-    if (!sample_tsdf(w, block, false, tsdf, unused)) {
+    uint nearest = voxel_index(ivec3(floor(g + 0.5)));
+    uint word0 = nearest == VOLUME_NO_BLOCK ? 0u : tsdf_weight[nearest];
+    float tsdf = unpack_tsdf(word0);
+    if (tsdf * p.truncation >= coarse_distance && unpack_weight(word0) != 0u) {
+      // Far in front of the surface: a step that the nearest voxel's distance bounds.
       have_previous = false;
-      t += 0.5 * p.voxel_size;
+      t += 0.8 * tsdf * p.truncation - coarse_margin;
+      continue;
+    }
+    if (unpack_weight(word0) == 0u || !trilinear_tsdf(g, tsdf)) {  // unobserved
+      have_previous = false;
+      t += (unpack_weight(word0) == 0u ? 1.0 : 0.5) * p.voxel_size;
       continue;
     }
     if (have_previous && previous_tsdf > 0.0 && tsdf <= 0.0) {
@@ -123,21 +172,8 @@ void main() {
     return;
   }
   vec3 hit = origin + hit_t * dir;
-  // Normal: central differences of the trilinear TSDF, one voxel apart.
-  vec3 gradient;
-  vec3 unused;
-  float plus, minus;
-  bool ok = true;
-  for (int axis = 0; axis < 3; ++axis) {
-    vec3 e = vec3(0.0);
-    e[axis] = p.voxel_size;
-    ok = ok && sample_tsdf(hit + e, VOLUME_NO_BLOCK, false, plus, unused) &&
-         sample_tsdf(hit - e, VOLUME_NO_BLOCK, false, minus, unused);
-    gradient[axis] = plus - minus;
-  }
-  float tsdf_hit;
-  vec3 rgb_hit;
-  if (!ok || length(gradient) <= 0.0 || !sample_tsdf(hit, VOLUME_NO_BLOCK, true, tsdf_hit, rgb_hit)) {
+  vec3 gradient, rgb_hit;
+  if (!hit_cell(hit / p.voxel_size, gradient, rgb_hit) || length(gradient) <= 0.0) {
     write_miss(i);
     return;
   }

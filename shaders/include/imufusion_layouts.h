@@ -185,12 +185,12 @@ struct VolumeRangeParams {
   uint block_count;   // pool blocks in use
 };
 
-// volume_raycast: per pixel, march the ray from near to far: unallocated blocks are skipped half
-// a block at a time, observed space in steps of 0.8 * tsdf * truncation (at least half a voxel);
-// the first + to - crossing of the trilinear TSDF is refined linearly. The range image only
-// shortens the march: it starts at the last half-block step (counted from near) before the
-// cell's z_min and ends past its z_max, where every sample of the full march would fall in
-// unallocated blocks, so the result is that of the full march. Output (camera frame of the
+// volume_raycast: per pixel, march the ray from near to far by the rule of
+// volume_raycast_rule.h: unallocated blocks are left through their exit face, observed space is
+// crossed in steps bounded by the nearest voxel's TSDF, and the first + to - crossing of the
+// trilinear TSDF is refined linearly. The range image only shortens the march: it starts at the
+// cell's z_min and ends past its z_max, outside which every sample of the full march would fall
+// in unallocated blocks, so the result is that of the full march. Output (camera frame of the
 // pose): vertex and normal maps (w = 1 where hit), a shaded image and the surface colour.
 struct VolumeRaycastParams {
   uint width;

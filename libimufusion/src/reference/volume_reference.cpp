@@ -1,7 +1,10 @@
 #include "reference/volume_reference.hpp"
 
+#include "volume_raycast_rule.h"
+
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <set>
 
 namespace imufusion::reference {
@@ -174,13 +177,11 @@ const StoredVoxel* CpuVolume::voxel(const Eigen::Vector3i& l) const {
   return &found->second[static_cast<std::size_t>(voxel_index(i.x(), i.y(), i.z()))];
 }
 
-bool CpuVolume::sample(const Eigen::Vector3d& w, double* tsdf, Eigen::Vector3d* rgb) const {
-  const Eigen::Vector3d g = w / voxel_size_;
+bool CpuVolume::trilinear_tsdf(const Eigen::Vector3d& g, double* tsdf) const {
   const Eigen::Vector3d base_d = g.array().floor();
   const Eigen::Vector3i base = base_d.cast<int>();
   const Eigen::Vector3d f = g - base_d;
   *tsdf = 0.0;
-  rgb->setZero();
   for (int corner = 0; corner < 8; ++corner) {
     const Eigen::Vector3i o(corner & 1, (corner >> 1) & 1, corner >> 2);
     const StoredVoxel* voxel = this->voxel(base + o);
@@ -188,8 +189,32 @@ bool CpuVolume::sample(const Eigen::Vector3d& w, double* tsdf, Eigen::Vector3d* 
     double weight = 1.0;
     for (int axis = 0; axis < 3; ++axis) weight *= o[axis] != 0 ? f[axis] : 1.0 - f[axis];
     *tsdf += weight * (voxel->tsdf / kTsdfScale);
+  }
+  return true;
+}
+
+bool CpuVolume::hit_cell(const Eigen::Vector3d& g, Eigen::Vector3d* gradient,
+                         Eigen::Vector3d* rgb) const {
+  const Eigen::Vector3d base_d = g.array().floor();
+  const Eigen::Vector3i base = base_d.cast<int>();
+  const Eigen::Vector3d f = g - base_d;
+  gradient->setZero();
+  rgb->setZero();
+  for (int corner = 0; corner < 8; ++corner) {
+    const Eigen::Vector3i o(corner & 1, (corner >> 1) & 1, corner >> 2);
+    const StoredVoxel* voxel = this->voxel(base + o);
+    if (voxel == nullptr || voxel->weight == 0) return false;
+    // Per-axis interpolation weights and their derivatives along the axis.
+    Eigen::Vector3d s, ds;
+    for (int axis = 0; axis < 3; ++axis) {
+      s[axis] = o[axis] != 0 ? f[axis] : 1.0 - f[axis];
+      ds[axis] = o[axis] != 0 ? 1.0 : -1.0;
+    }
+    const double tsdf = voxel->tsdf / kTsdfScale;
+    *gradient += tsdf * Eigen::Vector3d(ds.x() * s.y() * s.z(), s.x() * ds.y() * s.z(),
+                                        s.x() * s.y() * ds.z());
     for (int c = 0; c < 3; ++c)
-      (*rgb)[c] += weight * (voxel->color[static_cast<std::size_t>(c)] / 255.0);
+      (*rgb)[c] += s.prod() * (voxel->color[static_cast<std::size_t>(c)] / 255.0);
   }
   return true;
 }
@@ -219,17 +244,33 @@ RaycastImages CpuVolume::raycast(const Intrinsics& k, const Eigen::Isometry3d& T
       double previous_tsdf = 0.0, previous_t = 0.0, hit_t = -1.0;
       bool have_previous = false;
       while (t < t_far) {
-        const Eigen::Vector3d w = origin + t * dir;
-        if (!contains(floor_div(w, length))) {
+        const Eigen::Vector3d g = (origin + t * dir) / voxel_size_;  // lattice coordinates
+        const Eigen::Vector3i b = floor_div(g, kBlockSide);
+        if (!contains(b)) {
+          // Free or unknown space: leave the block through the face the ray exits by.
           have_previous = false;
-          t += 0.5 * length;  // free or unknown space: skip half a block
+          double t_exit = std::numeric_limits<double>::infinity();
+          for (int axis = 0; axis < 3; ++axis) {
+            if (std::abs(dir[axis]) < 1e-12) continue;
+            const double face = (b[axis] + (dir[axis] >= 0.0 ? 1 : 0)) * length;
+            t_exit = std::min(t_exit, (face - origin[axis]) / dir[axis]);
+          }
+          t = std::max(t, t_exit) + VOLUME_RAYCAST_EXIT_MARGIN * voxel_size_;
           continue;
         }
-        double tsdf;
-        Eigen::Vector3d rgb;
-        if (!sample(w, &tsdf, &rgb)) {
+        const StoredVoxel* nearest = voxel(floor_div(g + Eigen::Vector3d::Constant(0.5), 1.0));
+        const bool observed = nearest != nullptr && nearest->weight != 0;
+        double tsdf = observed ? nearest->tsdf / kTsdfScale : 0.0;
+        if (observed && tsdf * truncation_ >= VOLUME_RAYCAST_COARSE_VOXELS * voxel_size_) {
+          // Far in front of the surface: the sample lies within sqrt(3)/2 voxel of the nearest
+          // lattice point, so one voxel less than the usual step stays in front of it.
           have_previous = false;
-          t += 0.5 * voxel_size_;
+          t += 0.8 * tsdf * truncation_ - voxel_size_;
+          continue;
+        }
+        if (!observed || !trilinear_tsdf(g, &tsdf)) {
+          have_previous = false;
+          t += (observed ? 0.5 : 1.0) * voxel_size_;
           continue;
         }
         if (have_previous && previous_tsdf > 0.0 && tsdf <= 0.0) {
@@ -244,17 +285,8 @@ RaycastImages CpuVolume::raycast(const Intrinsics& k, const Eigen::Isometry3d& T
       }
       if (hit_t < 0.0) continue;
       const Eigen::Vector3d hit = origin + hit_t * dir;
-      Eigen::Vector3d gradient, unused;
-      bool ok = true;
-      for (int axis = 0; axis < 3 && ok; ++axis) {
-        const Eigen::Vector3d e = Eigen::Vector3d::Unit(axis) * voxel_size_;
-        double plus = 0.0, minus = 0.0;
-        ok = sample(hit + e, &plus, &unused) && sample(hit - e, &minus, &unused);
-        gradient[axis] = plus - minus;
-      }
-      double tsdf_hit;
-      Eigen::Vector3d rgb_hit;
-      if (!ok || !(gradient.norm() > 0.0) || !sample(hit, &tsdf_hit, &rgb_hit)) continue;
+      Eigen::Vector3d gradient, rgb_hit;
+      if (!hit_cell(hit / voxel_size_, &gradient, &rgb_hit) || !(gradient.norm() > 0.0)) continue;
       const Eigen::Vector3d vertex = R.transpose() * (hit - origin);
       const Eigen::Vector3d normal = R.transpose() * gradient.normalized();
       out.vertices.data[index] << vertex.cast<float>(), 1.0f;

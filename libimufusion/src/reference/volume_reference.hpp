@@ -71,8 +71,9 @@ class CpuVolume {
   AllocationResult fuse(const FloatImage& depth, const ColorImage* color,
                         const Intrinsics& intrinsics, const Eigen::Isometry3d& T_world_camera);
 
-  /// March every pixel's ray from near_depth to far_depth (metres of z-depth) and return the
-  /// camera-frame vertex and normal maps, the shading and the fused colour at the hit. The GPU
+  /// March every pixel's ray from near_depth to far_depth (metres of z-depth) by the rule of
+  /// shaders/include/volume_raycast_rule.h and return the camera-frame vertex and normal maps,
+  /// the shading and the fused colour at the hit. The GPU
   /// kernel marches only within a range image of the allocated blocks, where the full march can
   /// meet a block; that shortens the march without changing its samples, so this is the full one.
   RaycastImages raycast(const Intrinsics& intrinsics, const Eigen::Isometry3d& T_world_camera,
@@ -93,9 +94,13 @@ class CpuVolume {
   double truncation() const { return truncation_; }
 
  private:
-  /// Trilinear TSDF (truncation units) and colour (0..1) at world point w; false when one of
-  /// the 8 surrounding lattice points is unobserved.
-  bool sample(const Eigen::Vector3d& w, double* tsdf, Eigen::Vector3d* rgb) const;
+  /// Trilinear TSDF (truncation units) at lattice coordinates g (world point / voxel_size);
+  /// false when one of the 8 surrounding lattice points is unobserved.
+  bool trilinear_tsdf(const Eigen::Vector3d& g, double* tsdf) const;
+  /// The gradient of the trilinear TSDF (truncation units per voxel) and the trilinear colour
+  /// (0..1) at lattice coordinates g, from the 8 corners of its cell; false when one is
+  /// unobserved.
+  bool hit_cell(const Eigen::Vector3d& g, Eigen::Vector3d* gradient, Eigen::Vector3d* rgb) const;
 
   double voxel_size_;
   double truncation_;
