@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <random>
+#include <string>
 
 #include "imufusion/clock_offset.hpp"
 #include "imufusion/synth.hpp"
@@ -103,32 +103,60 @@ TEST(HostClockMapper, FollowsTheFastestMessageAndADriftingClock) {
   }
 }
 
-TEST(ClockOffsetEstimator, FindsAKnownOffsetOnSyntheticMotion) {
-  // 20 s sessions. Tolerances from the worst error over seeds 1-20 per scene (measured: fast
-  // 0.79 ms, wall 9.4 ms, room 33.5 ms; rms 0.46, 4.7, 15 ms): the offset is as sharp as the
-  // rotation rate varies, so slow walking motion pins it down far less than quick turns.
-  struct Case {
-    synth::SceneKind kind;
-    double tolerance;  // seconds
-  };
-  for (const Case c : {Case{synth::SceneKind::kFast, 0.002}, Case{synth::SceneKind::kWall, 0.015},
-                       Case{synth::SceneKind::kRoom, 0.040}}) {
-    for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+// 20 s sessions, seeds 1-20 of each scene. The correlation is as sharp as the rotation rate
+// varies: quick turns pin the offset to well under a millisecond, slow walking motion only to
+// tens of ms. Measured (correlation error; its standard error): fast |error| <= 0.8 ms, SE
+// 0.2-0.9 ms; wall <= 9.4 ms, SE 3.2-20 ms; room <= 33.5 ms, SE 5.1-24 ms. error / SE: |.| <= 3.2
+// over all 60 sessions, within 2 in 56 of them (five sub-windows: a t distribution with four
+// degrees of freedom puts 88% within 2). Accepted (SE <= 5 ms): every fast session and two wall
+// sessions, all within 1.9 ms; the others keep the arrival offset (3 ms, the smallest latency).
+TEST(ClockOffsetEstimator, ReportsAStandardErrorThatTracksTheActualError) {
+  const ClockOffsetOptions options;
+  int within_two = 0, sessions = 0;
+  double fast_se = 0.0, room_se = 0.0;
+  for (const synth::SceneKind kind :
+       {synth::SceneKind::kFast, synth::SceneKind::kWall, synth::SceneKind::kRoom}) {
+    for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+      const std::string name = std::string(synth::to_string(kind)) + " seed " + std::to_string(seed);
       const double offset = 1234.5 + 0.0371 * static_cast<double>(seed);
-      const Session session = make_session(c.kind, seed, offset, 20.0);
+      const Session session = make_session(kind, seed, offset, 20.0);
       const ClockOffsetEstimate estimate = run(session, true);
-      ASSERT_EQ(estimate.source, ClockOffsetEstimate::Source::kCorrelation)
-          << synth::to_string(c.kind) << " seed " << seed;
-      const double error = estimate.offset - offset;
-      std::printf("%s seed %d: error %+.2f ms, correlation %.3f, %zu intervals\n",
-                  synth::to_string(c.kind), static_cast<int>(seed), error * 1e3,
-                  estimate.correlation, estimate.intervals);
-      EXPECT_LT(std::abs(error), c.tolerance) << synth::to_string(c.kind) << " seed " << seed;
-      EXPECT_GT(estimate.confidence, 0.5);
-      EXPECT_LE(estimate.confidence, 1.0);
-      EXPECT_GT(estimate.intervals, 500u);
+      ASSERT_GT(estimate.standard_error, 0.0) << name;
+      EXPECT_GT(estimate.intervals, 500u) << name;
+      const double error = estimate.correlation_offset - offset;
+      const double z = error / estimate.standard_error;
+      EXPECT_LT(std::abs(z), 4.0) << name << ": error " << error << " s, SE "
+                                  << estimate.standard_error << " s";
+      within_two += std::abs(z) <= 2.0;
+      ++sessions;
+      if (kind == synth::SceneKind::kFast) fast_se += estimate.standard_error / 20.0;
+      if (kind == synth::SceneKind::kRoom) room_se += estimate.standard_error / 20.0;
+
+      if (estimate.standard_error <= options.max_standard_error) {
+        ASSERT_EQ(estimate.source, ClockOffsetEstimate::Source::kCorrelation) << name;
+        EXPECT_EQ(estimate.offset, estimate.correlation_offset) << name;
+        EXPECT_NEAR(estimate.confidence,
+                    1.0 - estimate.standard_error / options.max_standard_error, 1e-12);
+      } else {
+        // Not sharper than the arrival times: their offset (above the truth by the smallest
+        // latency, 3 ms), no confidence.
+        ASSERT_EQ(estimate.source, ClockOffsetEstimate::Source::kArrival) << name;
+        EXPECT_EQ(estimate.confidence, 0.0) << name;
+        EXPECT_GE(estimate.offset - offset, 0.003 - 1e-9) << name;
+      }
+      // Whichever was chosen, within the largest standard error accepted.
+      EXPECT_LT(std::abs(estimate.offset - offset), options.max_standard_error) << name;
+      if (kind == synth::SceneKind::kFast) {
+        EXPECT_EQ(estimate.source, ClockOffsetEstimate::Source::kCorrelation) << name;
+        EXPECT_GT(estimate.confidence, 0.5) << name;
+      }
+      if (kind == synth::SceneKind::kRoom) {
+        EXPECT_EQ(estimate.source, ClockOffsetEstimate::Source::kArrival) << name;
+      }
     }
   }
+  EXPECT_GE(within_two, sessions * 8 / 10);
+  EXPECT_GT(room_se, 5.0 * fast_se);
 }
 
 TEST(ClockOffsetEstimator, ArrivalTimesAloneBoundTheOffsetFromAbove) {

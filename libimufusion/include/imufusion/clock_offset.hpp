@@ -8,7 +8,8 @@
 // lower envelope of host_receive - t_sensor: transport latency is never negative, so the
 // smallest difference is the best bound). ClockOffsetEstimator refines the IMU's offset by
 // correlating the gyroscope's angular-rate magnitude with the camera's rotation rate from ICP,
-// which removes the latency bias the arrival times cannot see.
+// which removes the latency bias the arrival times cannot see, when the motion pins it down
+// better than that bias (a standard error from the correlation's sub-windows tells).
 
 #include <cstddef>
 #include <deque>
@@ -55,6 +56,12 @@ struct ClockOffsetOptions {
   /// Standard deviation of the camera rotation rate below which the motion does not excite
   /// the correlation (rad/s): a camera held still has no rate signal to align.
   double min_rate_std = 0.05;
+  /// The correlation is also computed over this many consecutive sub-windows of the camera
+  /// intervals; the spread of their peaks gives the estimate's standard error.
+  int blocks = 5;
+  /// Largest standard error (seconds) at which the correlation replaces the arrival-time
+  /// offset (whose bias is the smallest transport latency, a few ms over Wi-Fi).
+  double max_standard_error = 0.005;
 };
 
 /// What the estimator knows about the offset (t_host = t_imu + offset).
@@ -63,12 +70,21 @@ struct ClockOffsetEstimate {
   Source source = Source::kNone;
   double offset = 0.0;       // seconds
   /// In [0, 1]: 0 for kNone and kArrival (an upper bound only, biased by the smallest
-  /// latency); for kCorrelation the peak normalized cross-correlation of the two rate signals.
-  /// Accuracy depends on how much the rotation rate varies: on synthetic 20 s sessions with
-  /// 0.03 rad/s ICP rate noise, fast hand-held motion gave errors below 1 ms, slow walking
-  /// motion up to ~35 ms (tests/unit/clock_offset_test.cpp).
+  /// latency); for kCorrelation 1 - standard_error / max_standard_error (1: exact, 0: at the
+  /// limit of acceptance).
   double confidence = 0.0;
-  double correlation = 0.0;  // peak normalized cross-correlation (kCorrelation), else 0
+  /// Standard error of the correlation offset (seconds), from the spread of the peaks of its
+  /// sub-windows; 0 when no correlation was computed. The correlation is used only when this
+  /// is at most ClockOffsetOptions::max_standard_error. It tracks the actual error, which
+  /// depends on how much the rotation rate varies: on synthetic 20 s sessions (0.03 rad/s ICP
+  /// rate noise) fast hand-held motion gave SE 0.2-0.9 ms for errors below 0.8 ms, slow
+  /// walking motion SE 5-24 ms for errors up to 34 ms; error / SE stayed within 3.2
+  /// (tests/unit/clock_offset_test.cpp).
+  double standard_error = 0.0;
+  /// The correlation's offset, also when it was not accepted (then `offset` is the arrival
+  /// time's); 0 when no correlation was computed.
+  double correlation_offset = 0.0;
+  double correlation = 0.0;  // peak normalized cross-correlation (when computed), else 0
   std::size_t intervals = 0;  // camera intervals used
 };
 
@@ -98,7 +114,7 @@ class ClockOffsetEstimator {
 
  private:
   struct Interval {
-    double begin, end, rate;
+    double begin, end, rate;  // host clock, seconds; rad/s
   };
   double mean_rate(double begin, double end) const;  // |mean gyro| over [begin, end], IMU clock
   Eigen::Vector3d integral_at(double t) const;       // integral of gyro from the first sample

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
+#include <vector>
 
 namespace imufusion {
 
@@ -84,6 +86,50 @@ double ClockOffsetEstimator::mean_rate(double begin, double end) const {
   return (integral_at(end) - integral_at(begin)).norm() / (end - begin);
 }
 
+namespace {
+
+// Normalized cross-correlation of the camera rates of intervals [first, last) with the gyro
+// rates at one lag; -1 when either signal is constant.
+double normalized_correlation(const std::vector<double>& camera_rates,
+                              const std::vector<double>& gyro_rates, std::size_t first,
+                              std::size_t last) {
+  const auto n = static_cast<double>(last - first);
+  if (n < 2.0) return -1.0;
+  double camera_mean = 0.0, gyro_mean = 0.0;
+  for (std::size_t k = first; k < last; ++k) {
+    camera_mean += camera_rates[k];
+    gyro_mean += gyro_rates[k];
+  }
+  camera_mean /= n;
+  gyro_mean /= n;
+  double cross = 0.0, camera_ss = 0.0, gyro_ss = 0.0;
+  for (std::size_t k = first; k < last; ++k) {
+    const double c = camera_rates[k] - camera_mean;
+    const double g = gyro_rates[k] - gyro_mean;
+    cross += c * g;
+    camera_ss += c * c;
+    gyro_ss += g * g;
+  }
+  if (!(camera_ss > 0.0 && gyro_ss > 0.0)) return -1.0;
+  return cross / std::sqrt(camera_ss * gyro_ss);
+}
+
+// The lag index (fractional) of the interior maximum of `ncc`, refined by the vertex of the
+// parabola through it and its neighbours; nullopt when the maximum lies on the border or the
+// correlation there is not positive.
+std::optional<double> peak_lag(const std::vector<double>& ncc) {
+  const auto best = static_cast<int>(std::max_element(ncc.begin(), ncc.end()) - ncc.begin());
+  const int last = static_cast<int>(ncc.size()) - 1;
+  if (best == 0 || best == last || ncc[best] <= 0.0) return std::nullopt;
+  const double left = ncc[best - 1], peak = ncc[best], right = ncc[best + 1];
+  const double curvature = left - 2.0 * peak + right;
+  double shift = 0.0;
+  if (curvature < 0.0) shift = std::clamp(0.5 * (left - right) / curvature, -0.5, 0.5);
+  return best + shift;
+}
+
+}  // namespace
+
 ClockOffsetEstimate ClockOffsetEstimator::estimate() const {
   ClockOffsetEstimate result;
   std::optional<double> centre;
@@ -119,39 +165,56 @@ ClockOffsetEstimate ClockOffsetEstimator::estimate() const {
   }
   if (std::sqrt(camera_ss / n) < options_.min_rate_std) return result;
 
+  // The correlation over all intervals, and over `blocks` consecutive sub-windows of them: the
+  // spread of the sub-windows' peaks measures how well the data pin the offset down.
+  const int blocks = std::max(2, options_.blocks);
   const int steps = std::max(1, static_cast<int>(std::lround(radius / options_.lag_step)));
-  std::vector<double> ncc(2 * steps + 1, -1.0);
-  std::vector<double> gyro_rates(used.size());
-  for (int i = 0; i <= 2 * steps; ++i) {
+  const int lags = 2 * steps + 1;
+  std::vector<double> ncc(lags, -1.0);
+  std::vector<std::vector<double>> block_ncc(blocks, std::vector<double>(lags, -1.0));
+  std::vector<double> gyro_rates(used.size()), camera_rates(used.size());
+  for (std::size_t k = 0; k < used.size(); ++k) camera_rates[k] = used[k]->rate;
+  const auto block_begin = [&](int b) { return used.size() * b / blocks; };
+  for (int i = 0; i < lags; ++i) {
     const double offset = *centre + (i - steps) * options_.lag_step;
-    double gyro_mean = 0.0;
     for (std::size_t k = 0; k < used.size(); ++k) {
       gyro_rates[k] = mean_rate(used[k]->begin - offset, used[k]->end - offset);
-      gyro_mean += gyro_rates[k];
     }
-    gyro_mean /= n;
-    double cross = 0.0, gyro_ss = 0.0;
-    for (std::size_t k = 0; k < used.size(); ++k) {
-      const double g = gyro_rates[k] - gyro_mean;
-      cross += g * (used[k]->rate - camera_mean);
-      gyro_ss += g * g;
+    ncc[i] = normalized_correlation(camera_rates, gyro_rates, 0, used.size());
+    for (int b = 0; b < blocks; ++b) {
+      block_ncc[b][i] =
+          normalized_correlation(camera_rates, gyro_rates, block_begin(b), block_begin(b + 1));
     }
-    if (gyro_ss > 0.0) ncc[i] = cross / std::sqrt(gyro_ss * camera_ss);
   }
-  const auto best = static_cast<int>(std::max_element(ncc.begin(), ncc.end()) - ncc.begin());
+  const std::optional<double> peak = peak_lag(ncc);
   // A peak on the border of the search is a slope, not a maximum: keep the arrival estimate.
-  if (best == 0 || best == 2 * steps || ncc[best] <= 0.0) return result;
+  if (!peak) return result;
+  const double peak_value = *std::max_element(ncc.begin(), ncc.end());
 
-  // Sub-step refinement: vertex of the parabola through the peak and its two neighbours.
-  const double left = ncc[best - 1], peak = ncc[best], right = ncc[best + 1];
-  const double curvature = left - 2.0 * peak + right;
-  double shift = 0.0;
-  if (curvature < 0.0) shift = std::clamp(0.5 * (left - right) / curvature, -0.5, 0.5);
-  result.source = ClockOffsetEstimate::Source::kCorrelation;
-  result.offset = *centre + (best - steps + shift) * options_.lag_step;
-  result.correlation = peak;
-  result.confidence = std::clamp(peak, 0.0, 1.0);
+  // Standard error of the peak from the sub-windows, as of a mean of independent estimates. A
+  // sub-window without a positive interior maximum counts at its best lag (on the border of
+  // the search for a slope): it pins nothing down.
+  double spread = 0.0;
+  for (int b = 0; b < blocks; ++b) {
+    const std::optional<double> block_peak = peak_lag(block_ncc[b]);
+    const double lag = block_peak ? *block_peak
+                                  : static_cast<double>(std::max_element(block_ncc[b].begin(),
+                                                                         block_ncc[b].end()) -
+                                                        block_ncc[b].begin());
+    spread += (lag - *peak) * (lag - *peak);
+  }
+  const double standard_error = std::sqrt(spread / (blocks * (blocks - 1.0))) * options_.lag_step;
+
+  result.correlation = peak_value;
+  result.standard_error = standard_error;
   result.intervals = used.size();
+  result.correlation_offset = *centre + (*peak - steps) * options_.lag_step;
+  // Not sharper than the arrival-time bound: keep that. Without arrival times the search
+  // centre is only a prior guess, so the correlation is taken whatever its error.
+  if (!(standard_error <= options_.max_standard_error) && has_arrival_) return result;
+  result.source = ClockOffsetEstimate::Source::kCorrelation;
+  result.offset = result.correlation_offset;
+  result.confidence = std::clamp(1.0 - standard_error / options_.max_standard_error, 0.0, 1.0);
   return result;
 }
 
