@@ -258,6 +258,34 @@ TEST(OniPlayback, HonoursTheColourAndRealtimeOptions) {
   }
 }
 
+TEST(OniPlayback, GivenIntrinsicsReplaceTheFieldOfView) {
+  if (!openni2_available()) GTEST_SKIP() << "built without OpenNI2";
+  TempDir dir;
+  const test::OniRecording recording = random_recording(32, 24, 3, false, 23);
+  ASSERT_TRUE(test::write_oni(dir / "scan.oni", recording).ok());
+  SourceOptions options;
+  options.intrinsics = Intrinsics{};
+  options.intrinsics->fx = 41.5;
+  options.intrinsics->fy = 40.25;
+  options.intrinsics->cx = 16.125;
+  options.intrinsics->cy = 11.75;
+  auto source = open_frame_source((dir / "scan.oni").string(), options);
+  ASSERT_TRUE(source.ok()) << source.error().describe();
+  const Intrinsics& k = (*source)->intrinsics();
+  const Intrinsics& given = *options.intrinsics;
+  EXPECT_TRUE(k.fx == given.fx && k.fy == given.fy && k.cx == given.cx && k.cy == given.cy)
+      << k.fx << " " << k.fy << " " << k.cx << " " << k.cy;
+  EXPECT_EQ(k.width, 32);  // the stream's, not the (zero) size given
+  EXPECT_EQ(k.height, 24);
+  expect_plays_back(**source, recording, false);
+
+  options.intrinsics->fy = 0.0;
+  source = open_frame_source((dir / "scan.oni").string(), options);
+  ASSERT_FALSE(source.ok());
+  EXPECT_EQ(source.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_NE(source.error().message.find("scan.oni"), std::string::npos) << source.error().message;
+}
+
 // The byte offset where the `n`th (1-based) NEW_DATA record of an .oni file starts.
 std::size_t new_data_record(const std::vector<char>& bytes, int n) {
   const std::string magic("NIR\0\x0A\0\0\0", 8);  // record magic, then type NEW_DATA
