@@ -8,10 +8,12 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <deque>
 #include <mutex>
+#include <thread>
 
 #include "imufusion/clock_offset.hpp"
 #include "imufusion/imu_stream.hpp"
@@ -99,14 +101,15 @@ class OpenNI2Source final : public FrameSource {
 
   ~OpenNI2Source() override {
     if (watch_) openni::OpenNI::removeDeviceDisconnectedListener(watch_.get());
-    if (color_.isValid()) {
-      color_.stop();
-      color_.destroy();
-    }
-    if (depth_.isValid()) {
-      depth_.stop();
-      depth_.destroy();
-    }
+    // OpenNI2's file device walks its list of streams in its playback thread without a lock,
+    // continuously while a stream is started (at the end of the file too), every 10 ms once
+    // none is. Destroying a stream edits that list: stop all, let that thread see it, then
+    // destroy (destroying a started stream crashed about one run in twelve).
+    if (color_.isValid()) color_.stop();
+    if (depth_.isValid()) depth_.stop();
+    if (is_file_) std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    if (color_.isValid()) color_.destroy();
+    if (depth_.isValid()) depth_.destroy();
     if (device_.isValid()) device_.close();
     if (acquired_) release_openni();
   }
@@ -478,7 +481,12 @@ void OpenNI2Source::pair_recorded_color(double device_time, Frame* frame) {
 Result<std::optional<Frame>> OpenNI2Source::next_recorded() {
   while (true) {
     while (depth_queue_.empty()) {
-      if (total_frames_ > 0 && depth_read_ >= total_frames_) return std::optional<Frame>();
+      if (total_frames_ > 0 && depth_read_ >= total_frames_) {
+        // At the end of the file the playback thread spins on while a stream is started.
+        if (color_.isValid()) color_.stop();
+        depth_.stop();
+        return std::optional<Frame>();
+      }
       auto more = read_recorded();
       if (!more.ok()) return more.error();
       if (!*more) {
