@@ -85,12 +85,16 @@ InertialConfig base_config(const Eigen::Isometry3d& T_camera_imu, TranslationMod
 
 /// One run over a synthetic motion. `dead_reckon` frames are observed as unreliable with the
 /// dead-reckoned pose (pose_a * prediction) instead of the tracked one.
+// ms into the dead-reckoned stretch at which its drift is reported.
+constexpr int kDriftTimesMs[] = {300, 500, 800, 1000, 2000};
+
 struct RunResult {
   Errors errors;                           // frames after kSettle
   std::map<int, double> bias_error;        // second -> |b - b_true| (rad/s)
   std::map<int, double> hand_eye_error;    // second -> deg, NaN before the estimate is used
   double switch_time = NAN;                // s after start when the hand-eye estimate was used
   double drift_pos_mm = NAN, drift_rot_deg = NAN;  // at the end of the dead-reckoned stretch
+  std::map<int, double> drift_pos_at_mm;  // ms into the stretch -> position error (mm)
 };
 
 RunResult run(const synth::CameraMotion& motion, std::uint64_t seed, double seconds,
@@ -116,6 +120,13 @@ RunResult run(const synth::CameraMotion& motion, std::uint64_t seed, double seco
     const bool dark = dead_reckon && tb > dead_reckon->begin && tb <= dead_reckon->end;
     const Eigen::Isometry3d pose_b = dark ? pose_a * p.T_a_b : noise.apply(motion.pose_at(tb));
     nav.observe(ta, tb, pose_a, pose_b, !dark);
+    if (dark) {
+      const int ms = static_cast<int>(std::lround(1e3 * (tb - dead_reckon->begin)));
+      for (const int at : kDriftTimesMs) {
+        if (std::abs(ms - at) * kFps < 500)  // the frame within half a period of `at`
+          out.drift_pos_at_mm[at] = 1e3 * (pose_b.translation() - motion.pose_at(tb).translation()).norm();
+      }
+    }
     if (dark && tb + 1.0 / kFps > dead_reckon->end) {
       // Drift over the stretch: the dead-reckoned pose against the truth, relative to where
       // dead reckoning started (the tracked pose at the stretch's start had its own noise).
@@ -289,6 +300,7 @@ int main(int argc, char** argv) {
   std::map<std::string, std::map<TranslationModel, Errors>> errors;
   std::map<std::string, Errors> no_imu;
   std::map<TranslationModel, std::vector<double>> drift_pos, drift_rot;
+  std::map<TranslationModel, std::map<int, std::vector<double>>> drift_pos_at;
   std::vector<std::map<int, double>> bias_runs, hand_eye_runs, hand_eye_bias_runs;
   std::vector<double> switch_times;
   for (const synth::SceneKind kind :
@@ -308,6 +320,7 @@ int main(int argc, char** argv) {
           const RunResult d = run(motion, seed, seconds, base_config(T_ci, model), samples, bias,
                                   T_ci.linear(), motion.wall_stretch());
           drift_pos[model].push_back(d.drift_pos_mm);
+          for (const auto& [at, mm] : d.drift_pos_at_mm) drift_pos_at[model][at].push_back(mm);
           drift_rot[model].push_back(d.drift_rot_deg);
         }
       }
@@ -339,6 +352,17 @@ int main(int argc, char** argv) {
     std::printf("| %s | %.0f / %.0f | %.3f / %.3f |\n", to_string(m),
                 percentile(drift_pos[m], 0.5), percentile(drift_pos[m], 0.95),
                 percentile(drift_rot[m], 0.5), percentile(drift_rot[m], 0.95));
+  }
+  std::printf("\nPosition drift into the stretch, mm, median / p95 over seeds\n\n| model |");
+  for (const int at : kDriftTimesMs) std::printf(" %d ms |", at);
+  std::printf("\n| --- |");
+  for (std::size_t i = 0; i < std::size(kDriftTimesMs); ++i) std::printf(" --- |");
+  std::printf("\n");
+  for (const TranslationModel m : kModels) {
+    std::printf("| %s |", to_string(m));
+    for (const int at : kDriftTimesMs)
+      std::printf(" %.1f / %.1f |", percentile(drift_pos_at[m][at], 0.5), percentile(drift_pos_at[m][at], 0.95));
+    std::printf("\n");
   }
   print_over_time("Gyro bias error, mounting known", "deg/s", 1.0 / kDeg, bias_runs);
   print_over_time("Mounting rotation error, hand-eye from identity", "deg", 1.0, hand_eye_runs);

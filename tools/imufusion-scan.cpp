@@ -234,6 +234,7 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
   j["lost_frames"] = stats.lost;
   j["recovering_frames"] = stats.recovering;
   j["dead_reckoned_frames"] = stats.dead_reckoned;
+  j["partial_icp_frames"] = stats.partial;
   j["recoveries"] = stats.recoveries;
   j["frames_to_recover"] = stats.recovery_frames;
   j["mean_icp_iterations"] = stats.mean_icp_iterations;

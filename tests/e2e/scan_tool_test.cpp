@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "imufusion/mesh.hpp"
+#include "imufusion/reconstructor.hpp"
 #include "imufusion/synth.hpp"
 #include "imufusion/trajectory.hpp"
 #include "scan_test_fixtures.hpp"
@@ -103,7 +104,9 @@ TEST_F(ScanTool, ScansARoomWithTheImuAndWritesEveryOutput) {
 }
 
 // Facing a bare wall, ICP is degenerate: with or without the IMU those frames must be reported
-// (lost, dead-reckoned pose) and never fused.
+// (lost, dead-reckoned pose) and never fused. With the IMU, the first moments of the degeneracy
+// are bridged by partial alignments (tracking, pose source icp_partial, fewer than six
+// directions from ICP), for at most max_partial_seconds after the last fully constrained frame.
 TEST_F(ScanTool, WallStretchIsReportedAsLostAndNotFused) {
   const fs::path seq = synthesize(scratch_.path(), "wall", synth::SceneKind::kWall, 200, 23);
   const synth::CameraMotion motion(synth::SceneKind::kWall, 23, synth::SynthConfig{}.start_time);
@@ -114,12 +117,25 @@ TEST_F(ScanTool, WallStretchIsReportedAsLostAndNotFused) {
     ASSERT_EQ(run.exit_code, 0) << run.err;
     const auto rows = read_csv(out / "frames.csv");
     ASSERT_EQ(rows.size(), 200u);
-    std::size_t in_stretch = 0;
+    std::size_t in_stretch = 0, partial = 0;
+    double last_constrained = 0;
     for (const Row& row : rows) {
       const double t = std::stod(row.at("timestamp"));
+      if (row.at("pose_source") == "icp" || row.at("pose_source") == "initial") last_constrained = t;
+      if (row.at("pose_source") == "icp_partial") {
+        ++partial;
+        EXPECT_TRUE(flags.empty()) << "partial alignment without an IMU at t=" << row.at("timestamp");
+        EXPECT_EQ(row.at("status"), "tracking") << " t=" << row.at("timestamp");
+        EXPECT_EQ(row.at("fused"), "1") << " t=" << row.at("timestamp");
+        EXPECT_EQ(row.at("icp_reliable"), "0") << " t=" << row.at("timestamp");
+        const int directions = std::stoi(row.at("icp_directions"));
+        EXPECT_GE(directions, 3) << " t=" << row.at("timestamp");
+        EXPECT_LT(directions, 6) << " t=" << row.at("timestamp");
+        EXPECT_LE(t - last_constrained, ReconstructorConfig{}.max_partial_seconds + 1e-6) << " t=" << row.at("timestamp");
+      }
       if (t >= stretch.begin && t <= stretch.end) {
         ++in_stretch;
-        EXPECT_NE(row.at("status"), "tracking") << flags << " t=" << row.at("timestamp");
+        EXPECT_NE(row.at("pose_source"), "icp") << flags << " t=" << row.at("timestamp");
       }
       if (row.at("status") != "tracking") {
         EXPECT_EQ(row.at("fused"), "0") << flags << " t=" << row.at("timestamp");
@@ -134,7 +150,8 @@ TEST_F(ScanTool, WallStretchIsReportedAsLostAndNotFused) {
     EXPECT_GT(in_stretch, 50u);
     const auto summary = read_json(out / "summary.json");
     EXPECT_EQ(summary["settings"]["imu"], flags.empty());
-    EXPECT_GE(summary["lost_frames"].get<std::size_t>(), in_stretch);
+    EXPECT_GE(summary["lost_frames"].get<std::size_t>() + partial, in_stretch);
+    EXPECT_EQ(summary["partial_icp_frames"].get<std::size_t>(), partial);
   }
 }
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include <Eigen/QR>
 #include <gtest/gtest.h>
 
 #include "imufusion/icp.hpp"
@@ -86,6 +87,33 @@ TEST(IcpStep, EmptyOrNonFiniteSystemIsNotSolvable) {
   EXPECT_TRUE(step.x.allFinite());
 }
 
+TEST(IcpStep, TruncatedSolveMovesOnlyAlongWellConditionedDirections) {
+  // AtA with three strong and three weak singular directions (a rotated basis, so the directions
+  // are not the coordinate axes).
+  const Eigen::Matrix<double, 6, 6> Q =
+      Eigen::HouseholderQR<Eigen::Matrix<double, 6, 6>>(Eigen::Matrix<double, 6, 6>::Random()).householderQ();
+  Eigen::Matrix<double, 6, 1> s;
+  s << 4.0, 2.0, 1.0, 1e-5, 1e-6, 1e-7;
+  NormalEquations eq;
+  eq.AtA = Q * s.asDiagonal() * Q.transpose();
+  Eigen::Matrix<double, 6, 1> x_true;
+  x_true << 0.01, -0.02, 0.005, 0.03, -0.01, 0.02;
+  eq.Atb = eq.AtA * x_true;
+  eq.btb = x_true.dot(eq.AtA * x_true);
+  eq.inliers = 1000;
+  eq.weight_sum = 1000;
+  const IcpStep full = solve_icp_step(eq);
+  EXPECT_EQ(full.constrained_directions, 6);
+  EXPECT_LT((full.x - x_true).norm(), 1e-6);
+  const IcpStep truncated = solve_icp_step(eq, 100.0);
+  ASSERT_TRUE(truncated.solvable);
+  EXPECT_EQ(truncated.constrained_directions, 3);
+  // The projection of x_true onto the strong directions, nothing along the weak ones.
+  const Eigen::Matrix<double, 6, 3> strong = Q.leftCols<3>();
+  EXPECT_LT((truncated.x - strong * strong.transpose() * x_true).norm(), 1e-9);
+  EXPECT_LT((Q.rightCols<3>().transpose() * truncated.x).norm(), 1e-9);
+}
+
 TEST(IcpIncrement, IsARotationEvenForLargeAngles) {
   Eigen::Matrix<double, 6, 1> x;
   x << 0.5, -0.3, 0.8, 1, 2, 3;
@@ -143,6 +171,56 @@ TEST(IcpCpu, AFlatWallIsIllConditionedAndUnreliable) {
   EXPECT_GT(result->quality.condition, 1e3);
   EXPECT_FALSE(result->reliable);
   EXPECT_NE(result->reason.find("condition"), std::string::npos) << result->reason;
+}
+
+TEST(IcpCpu, AFlatWallSolvedDegeneracyAwareKeepsTheSeedAlongTheWall) {
+  // The wall constrains its normal translation and the two tilts; the in-plane translations and
+  // the rotation about the normal come from the seed (the IMU's prediction in the scanner). A
+  // seed right along the wall but off across it must end partial, right in all six directions.
+  synth::Scene wall;
+  synth::Plane plane;
+  plane.normal = Eigen::Vector3d(0, 0, 1);
+  plane.offset = 1.0;
+  wall.planes.push_back(plane);
+  const Eigen::Isometry3d motion = small_motion(0.8, {1, 2, 0.5}, {0.02, 0.01, 0.015});
+  Pair pair = render_pair(wall, Eigen::Isometry3d::Identity(), motion, /*noise=*/true);
+  // Seed: 12 mm too far from the wall and tilted 0.6 deg, exact along it.
+  const Eigen::Isometry3d seed =
+      motion * small_motion(0.6, {1, -1, 0}, {0, 0, 0}) * small_motion(0, {0, 0, 1}, {0, 0, 0.012});
+  IcpConfig config;
+  config.keep_seed_in_degenerate_directions = true;
+  reference::CpuNormalEquationSource source(pair.reference, pair.current, pair.k);
+  auto result = run_icp(source, config, seed);
+  ASSERT_TRUE(result.ok());
+  EXPECT_FALSE(result->reliable);
+  EXPECT_TRUE(result->partial) << result->reason;
+  EXPECT_EQ(result->quality.constrained_directions, 3);
+  const Eigen::Isometry3d error = motion.inverse() * result->T_ref_cur;
+  EXPECT_LT(rotation_deg(error), 0.1);
+  EXPECT_LT(error.translation().norm(), 0.002);
+  // The plain solve of the same start wanders along the wall instead.
+  reference::CpuNormalEquationSource plain_source(pair.reference, pair.current, pair.k);
+  auto plain = run_icp(plain_source, IcpConfig{}, seed);
+  ASSERT_TRUE(plain.ok());
+  EXPECT_FALSE(plain->partial);
+  EXPECT_FALSE(plain->reliable);
+}
+
+TEST(IcpCpu, DegeneracyAwareSolvingLeavesAWellConstrainedAlignmentUnchanged) {
+  const synth::Scene scene = synth::make_scene(synth::SceneKind::kRoom, 1);
+  const Eigen::Isometry3d motion = small_motion(1.0, {0.3, 1, 0.2}, {0.02, -0.01, 0.015});
+  Pair pair = render_pair(scene, room_view(), motion, false);
+  IcpConfig aware;
+  aware.keep_seed_in_degenerate_directions = true;
+  reference::CpuNormalEquationSource a(pair.reference, pair.current, pair.k);
+  reference::CpuNormalEquationSource b(pair.reference, pair.current, pair.k);
+  auto with = run_icp(a, aware, Eigen::Isometry3d::Identity());
+  auto without = run_icp(b, IcpConfig{}, Eigen::Isometry3d::Identity());
+  ASSERT_TRUE(with.ok() && without.ok());
+  EXPECT_TRUE(with->reliable) << with->reason;
+  EXPECT_FALSE(with->partial);
+  EXPECT_EQ(with->quality.constrained_directions, 6);
+  EXPECT_LT((with->T_ref_cur.matrix() - without->T_ref_cur.matrix()).norm(), 1e-9);
 }
 
 TEST(IcpCpu, DegenerateInputGivesAnUnreliableFinitePose) {

@@ -1,3 +1,5 @@
+#include <string>
+
 #include <gtest/gtest.h>
 
 #include "imufusion/tracking.hpp"
@@ -116,8 +118,29 @@ TEST(TrackingStateMachine, ResetForgetsEverything) {
 TEST(TrackingStateMachine, NamesRoundTrip) {
   for (auto s : {TrackingStatus::kTracking, TrackingStatus::kLost, TrackingStatus::kRecovering})
     EXPECT_EQ(parse_tracking_status(to_string(s)), s);
-  for (auto s : {PoseSource::kInitial, PoseSource::kIcp, PoseSource::kDeadReckoning, PoseSource::kKnown})
+  for (auto s : {PoseSource::kInitial, PoseSource::kIcp, PoseSource::kIcpPartial, PoseSource::kDeadReckoning,
+                 PoseSource::kKnown})
     EXPECT_EQ(parse_pose_source(to_string(s)), s);
+  EXPECT_EQ(std::string(to_string(PoseSource::kIcpPartial)), "icp_partial");
   EXPECT_FALSE(parse_tracking_status("tracked").has_value());
   EXPECT_FALSE(parse_pose_source("imu").has_value());
 }
+
+TEST(TrackingStateMachine, PartialIcpKeepsTrackingAndFusesWithItsOwnPoseSource) {
+  TrackingStateMachine m;
+  m.start();
+  expect(m.step(false, false, true), TrackingStatus::kTracking, PoseSource::kIcpPartial, true);
+  EXPECT_FALSE(m.recovering_or_lost());
+  expect(m.step(true, false), TrackingStatus::kTracking, PoseSource::kIcp, true);
+  // A reliable verdict wins over the partial flag.
+  expect(m.step(true, false, true), TrackingStatus::kTracking, PoseSource::kIcp, true);
+}
+
+TEST(TrackingStateMachine, PartialIcpNeitherRecoversNorCountsWhileLost) {
+  auto m = lost_machine(2);
+  expect(m.step(false, true, true), TrackingStatus::kLost, PoseSource::kDeadReckoning, false);
+  expect(m.step(true, true), TrackingStatus::kRecovering, PoseSource::kIcp, false);
+  // While recovering, a partial alignment breaks the count like any unreliable one.
+  expect(m.step(false, true, true), TrackingStatus::kLost, PoseSource::kDeadReckoning, false);
+}
+

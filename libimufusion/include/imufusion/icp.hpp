@@ -55,6 +55,16 @@ struct IcpConfig {
   double converged_rotation = 1e-5;
   double converged_translation = 1e-5;
   IcpReliabilityThresholds reliability;
+  /// Degeneracy-aware solving: directions of the 6-D update whose singular value is below
+  /// sigma_max / reliability.max_condition (the geometry barely constrains them: a flat wall
+  /// leaves its two in-plane translations and the rotation about its normal) are not updated
+  /// and keep the initial pose. Use it when the initial pose comes from the IMU: the result then
+  /// takes ICP's motion where the depth constrains it and the IMU's elsewhere (see
+  /// IcpResult::partial). Off: the plain SVD solution in all six directions.
+  bool keep_seed_in_degenerate_directions = false;
+  /// With keep_seed_in_degenerate_directions: the fewest directions the depth must constrain
+  /// for a partial result (a plane constrains three).
+  int min_constrained_directions = 3;
 
   Status validate(int levels) const;
 };
@@ -70,12 +80,19 @@ struct IcpQuality {
   double condition = 0;           // kappa = sigma_max / sigma_min of AtA (inf when singular)
   int iterations = 0;             // Gauss-Newton steps run, all levels
   bool converged = false;         // the finest level's update fell below the thresholds
+  /// Directions of the last step updated by ICP: 6 unless degeneracy-aware solving left some at
+  /// the initial pose.
+  int constrained_directions = 6;
 };
 
 struct IcpResult {
   Eigen::Isometry3d T_ref_cur = Eigen::Isometry3d::Identity();  // always finite
   IcpQuality quality;
   bool reliable = false;
+  /// Degeneracy-aware solving only: the alignment passed every test but the condition number,
+  /// the depth constrained at least min_constrained_directions directions and the others kept
+  /// the initial pose. Never set together with `reliable`.
+  bool partial = false;
   /// Why the result is unreliable ("condition 2.1e4 > 150", "no valid pixels"), empty if reliable.
   std::string reason;
 };
@@ -97,8 +114,11 @@ struct IcpStep {
   double residual = 0;
   double condition = 0;
   bool solvable = false;
+  int constrained_directions = 0;  // singular directions that x moves along
 };
-IcpStep solve_icp_step(const NormalEquations& eq);
+/// With `max_condition` > 0, x is the truncated-SVD solution: it moves only along singular
+/// directions whose singular value is at least sigma_max / max_condition (zero along the others).
+IcpStep solve_icp_step(const NormalEquations& eq, double max_condition = 0);
 
 /// The incremental transform of x: rotation exp([alpha, beta, gamma]) (exact, so it stays
 /// orthonormal), translation (tx, ty, tz).

@@ -105,10 +105,17 @@ struct InertialConfig {
   double accelerometer_process_noise = 0.08;
   /// m/s: above this velocity uncertainty no translation is predicted.
   double max_velocity_sigma = 0.3;
-  /// s: reliable tracked time before gravity is trusted; and its forgetting time constant
-  /// (hand-held motion averages to zero acceleration over seconds).
+  /// s: reliable tracked time before gravity is trusted; and the forgetting time constant of
+  /// the gravity and accelerometer-bias estimate.
   double gravity_min_time = 1.0;
   double gravity_time_constant = 60.0;
+  /// s: the longest chain of tracked frames fitted at once for gravity, accelerometer bias and
+  /// velocity (longer chains see more of the acceleration's t^2 effect; tracking drift, which is
+  /// not white, grows with length).
+  double gravity_chain_time = 3.0;
+  /// m/s^2, 1 sigma per axis: prior of the accelerometer bias (phone MEMS accelerometers: up to
+  /// ~0.1; draw_imu_bias() draws 0.02-0.06). Bias and gravity separate only as the device turns.
+  double accelerometer_bias_prior_sigma = 0.1;
 
   /// Fails naming the first field out of range.
   Status validate() const;
@@ -138,7 +145,10 @@ struct InertialStatus {
   double R_camera_imu_sigma_deg = 0;
   int hand_eye_pairs = 0;
   Eigen::Vector3d gravity_world = Eigen::Vector3d::Zero();  // m/s^2, world frame
+  Eigen::Vector3d gravity_sigma = Eigen::Vector3d::Zero();  // m/s^2, 1 sigma per axis
   bool gravity_ready = false;
+  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();        // m/s^2, IMU frame
+  Eigen::Vector3d accel_bias_sigma = Eigen::Vector3d::Zero();  // m/s^2, 1 sigma per axis
   Eigen::Vector3d velocity_world = Eigen::Vector3d::Zero();  // m/s, IMU point, world frame
   double velocity_sigma = 0;                                  // m/s, 1 sigma per axis
 };

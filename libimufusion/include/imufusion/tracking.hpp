@@ -4,12 +4,20 @@
 // whether the frame is fused into the volume. Pure logic, no GPU.
 //
 //   tracking   --ICP reliable-->                      tracking     pose: ICP,   fused
+//   tracking   --ICP partial-->                       tracking     pose: ICP partial, fused
 //   tracking   --ICP unreliable-->                    lost         pose: dead reckoning, not fused
 //   lost       --ICP unreliable-->                    lost         pose: dead reckoning, not fused
 //   lost       --ICP reliable and converged-->        recovering   pose: ICP,   not fused
 //   recovering --reliable and converged, k-th time--> tracking once k == recovery_frames, fused
 //   recovering --reliable, not converged-->           recovering   pose: ICP (count unchanged)
 //   recovering --ICP unreliable-->                    lost         pose: dead reckoning, not fused
+//
+// "ICP partial" (IcpResult::partial) is an IMU-seeded alignment that passed every test but the
+// condition number: ICP moved the pose along the directions the depth constrains and the IMU's
+// prediction stands in the others. Fusing it is safe because the unconstrained directions are
+// exactly those along which the visible surface looks the same (a wall slid along itself). It
+// counts as unreliable while lost or recovering: a recovery must be confirmed in all six
+// directions.
 //
 // The first frame of a scan (or after reset) defines the world: status tracking, pose source
 // `initial`, fused. Dead reckoning means M_{t-1} * dIMU: the previous pose moved by the IMU's
@@ -21,10 +29,11 @@
 namespace imufusion {
 
 enum class TrackingStatus { kTracking, kLost, kRecovering };
-enum class PoseSource { kInitial, kIcp, kDeadReckoning, kKnown };
+enum class PoseSource { kInitial, kIcp, kIcpPartial, kDeadReckoning, kKnown };
 
 const char* to_string(TrackingStatus status);  // "tracking", "lost", "recovering"
-const char* to_string(PoseSource source);      // "initial", "icp", "dead_reckoning", "known"
+/// "initial", "icp", "icp_partial", "dead_reckoning", "known"
+const char* to_string(PoseSource source);
 std::optional<TrackingStatus> parse_tracking_status(std::string_view name);
 std::optional<PoseSource> parse_pose_source(std::string_view name);
 
@@ -53,7 +62,8 @@ class TrackingStateMachine {
   TrackingDecision start();
   /// A later frame, given its ICP verdict. `converged` is the ICP's own convergence flag; it
   /// matters only while lost or recovering, where alignment must settle before it counts.
-  TrackingDecision step(bool icp_reliable, bool converged);
+  /// `icp_partial`: IcpResult::partial (only looked at when icp_reliable is false).
+  TrackingDecision step(bool icp_reliable, bool converged, bool icp_partial = false);
   /// Back to before the first frame.
   void reset();
 

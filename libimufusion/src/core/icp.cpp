@@ -38,10 +38,12 @@ Status IcpConfig::validate(int levels) const {
       return bad("ICP max_normal_angle_deg must be in (0, 90)");
   }
   if (iterations_per_level[0] < 1) return bad("ICP must run at least one iteration at level 0");
+  if (min_constrained_directions < 1 || min_constrained_directions > 6)
+    return bad("min_constrained_directions must be 1..6, got " + std::to_string(min_constrained_directions));
   return {};
 }
 
-IcpStep solve_icp_step(const NormalEquations& eq) {
+IcpStep solve_icp_step(const NormalEquations& eq, double max_condition) {
   IcpStep step;
   if (eq.inliers < 6 || !eq.AtA.allFinite() || !eq.Atb.allFinite() || !std::isfinite(eq.btb)) {
     step.condition = std::numeric_limits<double>::infinity();
@@ -52,7 +54,19 @@ IcpStep solve_icp_step(const NormalEquations& eq) {
   const auto& s = svd.singularValues();  // descending
   step.condition = s(5) > 0 ? s(0) / s(5) : std::numeric_limits<double>::infinity();
   if (!(s(0) > 0)) return step;
-  step.x = svd.solve(eq.Atb);
+  if (max_condition > 0) {
+    // Truncated SVD: AtA is symmetric, so its SVD is U S U^T and x = sum over kept i of
+    // u_i (u_i . Atb) / s_i.
+    const Eigen::Matrix<double, 6, 6>& U = svd.matrixU();
+    for (int i = 0; i < 6; ++i) {
+      if (!(s(i) > 0) || s(0) / s(i) > max_condition) break;
+      step.x += U.col(i) * (U.col(i).dot(eq.Atb) / s(i));
+      ++step.constrained_directions;
+    }
+  } else {
+    step.x = svd.solve(eq.Atb);
+    step.constrained_directions = 6;
+  }
   if (!step.x.allFinite()) {
     step.x.setZero();
     return step;
@@ -114,7 +128,8 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
     for (int it = 0; it < iterations; ++it) {
       auto eq = source.evaluate(level, T, config.max_distance[l], min_cos);
       if (!eq) return eq.error();
-      const IcpStep step = solve_icp_step(*eq);
+      const IcpStep step = solve_icp_step(
+          *eq, config.keep_seed_in_degenerate_directions ? config.reliability.max_condition : 0.0);
       IcpQuality& q = result.quality;
       q.inliers = eq->inliers;
       q.weight_sum = eq->weight_sum;
@@ -123,6 +138,7 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
       q.residual = step.residual;
       q.residual_per_inlier = eq->inliers > 0 ? step.residual / double(eq->inliers) : 0;
       q.residual_per_weight = eq->weight_sum > 0 ? step.residual / eq->weight_sum : 0;
+      q.constrained_directions = step.constrained_directions;
       ++total;
       finest_run = level;
       if (!step.solvable) {
@@ -153,6 +169,18 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
   if (result.reliable && finest_run != 0) {
     result.reliable = false;
     result.reason = "level 0 was not reached";
+  }
+  if (!result.reliable && config.keep_seed_in_degenerate_directions && finest_run == 0 &&
+      result.quality.constrained_directions >= config.min_constrained_directions) {
+    // Partial: every test but the condition passes (judged with the condition let through).
+    IcpReliabilityThresholds t = config.reliability;
+    t.max_condition = std::numeric_limits<double>::infinity();
+    std::string why;
+    if (judge_icp(result.quality, t, &why)) {
+      result.partial = true;
+      result.reason += "; " + std::to_string(result.quality.constrained_directions) +
+                       " of 6 directions from ICP, the rest from the initial pose";
+    }
   }
   return result;
 }

@@ -194,9 +194,12 @@ ImuIntegration SampleBuffer::integrate(double ta, double tb, const Eigen::Vector
     last = std::max(last, rate.last);
     const Eigen::Vector3d phi = (rate.gyro - bias) * dt;
     const Eigen::Matrix3d step = exp_so3(phi);
-    const Eigen::Vector3d f_world = R_world_imu_a * R * exp_so3(0.5 * phi) * rate.accel;
+    const Eigen::Matrix3d R_world_imu_mid = R_world_imu_a * R * exp_so3(0.5 * phi);
+    const Eigen::Vector3d f_world = R_world_imu_mid * rate.accel;
     out.delta_p += out.delta_v * dt + 0.5 * f_world * dt * dt;
     out.delta_v += f_world * dt;
+    out.Jp_accel += out.Jv_accel * dt + 0.5 * R_world_imu_mid * dt * dt;
+    out.Jv_accel += R_world_imu_mid * dt;
     out.J_bias = step.transpose() * out.J_bias - right_jacobian_so3(phi) * dt;
     R = R * step;
   }

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <deque>
 #include <limits>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -38,6 +39,10 @@ struct ImuIntegration {
   /// is not included.
   Eigen::Vector3d delta_v = Eigen::Vector3d::Zero();
   Eigen::Vector3d delta_p = Eigen::Vector3d::Zero();
+  /// Their derivatives by an accelerometer bias b (IMU frame, m/s^2) removed from every reading:
+  /// delta_v(b) = delta_v - Jv_accel b, delta_p(b) = delta_p - Jp_accel b (s and s^2, world frame).
+  Eigen::Matrix3d Jv_accel = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d Jp_accel = Eigen::Matrix3d::Zero();
   bool complete = false;        // every part of [ta, tb] had a rate (interpolated or held)
   double covered_fraction = 0;  // interpolated part of [ta, tb]
   int samples_used = 0;
@@ -134,6 +139,73 @@ class HandEyeCalibrator {
   int max_pairs_;
 };
 
+/// Gravity (world frame) and the accelerometer bias (IMU frame) from chains of reliably tracked
+/// frames. Within a chain the IMU point's positions follow
+///   p_k = p_0 + v_0 tau_k + g tau_k^2 / 2 + D_k - J_k b,
+/// D_k being the double integral of the measured specific force rotated into the world since the
+/// chain's start and J_k its derivative by the bias. Linear least squares over the positions
+/// (tracking_position_sigma each) gives (p_0, v_0, g, b): position-level, so the tracking noise
+/// is not differentiated into velocities. A chain ends at an unreliable pair or after
+/// max_chain_time; its information on (g, b) (p_0 and v_0 marginalized) carries over as a prior,
+/// forgotten with forget_time. The bias has a zero-mean prior: with little rotation in a chain only
+/// g - R b is seen, and the prior splits it.
+class GravityBiasEstimator {
+ public:
+  GravityBiasEstimator(double position_sigma, double bias_prior_sigma, double max_chain_time,
+                       double forget_time);
+
+  /// One frame pair of dt s; p_a, p_b: IMU-point positions (world, m). An unreliable pair or an
+  /// incomplete integration ends the chain.
+  void step(double dt, const Eigen::Vector3d& p_a, const Eigen::Vector3d& p_b, bool reliable,
+            const ImuIntegration* integration);
+
+  /// Tracked time (s, forgotten like the information) that went into the estimate.
+  double support_time() const { return support_time_ + chain_tau_; }
+  const Eigen::Vector3d& gravity() const { return gravity_; }
+  const Eigen::Vector3d& accel_bias() const { return bias_; }
+  /// 1 sigma per axis of gravity and bias (m/s^2); infinite before any chain carried information.
+  const Eigen::Vector3d& gravity_sigma() const { return gravity_sigma_; }
+  const Eigen::Vector3d& bias_sigma() const { return bias_sigma_; }
+
+  /// The velocity (world, m/s) at the last frame of the current chain and its largest per-axis
+  /// variance ((m/s)^2); nullopt while the chain is shorter than min_time or min_frames.
+  struct ChainVelocity {
+    Eigen::Vector3d velocity;
+    double variance;
+  };
+  std::optional<ChainVelocity> chain_velocity(double min_time, int min_frames) const;
+
+  /// Ends the current chain (a break in the frame sequence), keeping its information.
+  void interrupt();
+  void reset();
+
+ private:
+  using Mat12 = Eigen::Matrix<double, 12, 12>;
+  using Vec12 = Eigen::Matrix<double, 12, 1>;
+  void add_position(const Eigen::Vector3d& p);
+  void end_chain();
+  void solve();
+
+  double position_sigma_, bias_prior_sigma_, max_chain_time_, forget_time_;
+  // Prior on (g, b) from earlier chains, information form (without the bias prior).
+  Eigen::Matrix<double, 6, 6> prior_info_ = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 1> prior_vec_ = Eigen::Matrix<double, 6, 1>::Zero();
+  double support_time_ = 0;
+  // The current chain: unknowns (p_0, v_0, g, b); integrals since its first frame.
+  Mat12 H_ = Mat12::Zero();
+  Vec12 r_ = Vec12::Zero();
+  int chain_frames_ = 0;
+  double chain_tau_ = 0;
+  Eigen::Vector3d D_ = Eigen::Vector3d::Zero(), V_ = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d Jp_ = Eigen::Matrix3d::Zero(), Jv_ = Eigen::Matrix3d::Zero();
+  // The solution.
+  Vec12 x_ = Vec12::Zero();
+  Mat12 covariance_ = Mat12::Zero();
+  bool solved_ = false;
+  Eigen::Vector3d gravity_ = Eigen::Vector3d::Zero(), bias_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d gravity_sigma_, bias_sigma_;
+};
+
 /// Velocity of the IMU point in the world frame, filtered from tracked positions with either a
 /// constant-velocity process or the accelerometer; and gravity in the world frame.
 class VelocityFilter {
@@ -158,31 +230,21 @@ class VelocityFilter {
   bool has_velocity() const { return initialized_ && std::sqrt(P_) <= max_sigma_; }
   const Eigen::Vector3d& velocity() const { return v_; }
   double sigma() const { return initialized_ ? std::sqrt(P_) : std::numeric_limits<double>::infinity(); }
-  bool gravity_ready() const { return gravity_time_ >= gravity_min_time_; }
-  Eigen::Vector3d gravity() const;
+  bool gravity_ready() const { return gravity_.support_time() >= gravity_min_time_; }
+  const GravityBiasEstimator& gravity() const { return gravity_; }
   /// Forgets the velocity (a break in the frame chain); keeps gravity.
   void reset_velocity();
   /// Forgets velocity and gravity.
   void reset();
 
  private:
-  /// Accumulates gravity from a reliable pair (world displacement of the IMU point, m).
-  void observe_gravity(double dt, const Eigen::Vector3d& displacement,
-                       const ImuIntegration* integration);
-
   TranslationModel model_;
   double position_sigma_, cv_noise_, accel_noise_, max_sigma_;
-  double gravity_min_time_, gravity_tau_;
+  double gravity_min_time_;
   Eigen::Vector3d v_ = Eigen::Vector3d::Zero();
   double P_ = 0;  // velocity variance per axis, (m/s)^2
   bool initialized_ = false;
-  Eigen::Vector3d gravity_sum_ = Eigen::Vector3d::Zero();  // forgetting sum of g * dt, m/s
-  double gravity_time_ = 0;                                 // forgetting sum of dt, s
-  // The previous reliable pair, for gravity: u (m/s), delta_v (m/s), dt (s).
-  Eigen::Vector3d previous_u_ = Eigen::Vector3d::Zero();
-  Eigen::Vector3d previous_delta_v_ = Eigen::Vector3d::Zero();
-  double previous_dt_ = 0;
-  bool has_previous_pair_ = false;
+  GravityBiasEstimator gravity_;
 };
 
 }  // namespace imufusion::inertial

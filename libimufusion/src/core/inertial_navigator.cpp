@@ -61,6 +61,8 @@ Status InertialConfig::validate() const {
       {"max_velocity_sigma", max_velocity_sigma, false},
       {"gravity_min_time", gravity_min_time, true},
       {"gravity_time_constant", gravity_time_constant, false},
+      {"gravity_chain_time", gravity_chain_time, false},
+      {"accelerometer_bias_prior_sigma", accelerometer_bias_prior_sigma, false},
   };
   for (const auto& p : positive) {
     const bool ok = std::isfinite(p.value) && (p.zero_allowed ? p.value >= 0 : p.value > 0);
@@ -214,8 +216,11 @@ InertialStatus InertialNavigator::status() const {
   out.R_camera_imu_estimated = !s.config.T_camera_imu_known && s.mounting_trusted;
   out.R_camera_imu_sigma_deg = s.hand_eye_sigma * 180.0 / std::numbers::pi;
   out.hand_eye_pairs = s.hand_eye.pairs();
-  out.gravity_world = s.velocity.gravity();
+  out.gravity_world = s.velocity.gravity().gravity();
+  out.gravity_sigma = s.velocity.gravity().gravity_sigma();
   out.gravity_ready = s.velocity.gravity_ready();
+  out.accel_bias = s.velocity.gravity().accel_bias();
+  out.accel_bias_sigma = s.velocity.gravity().bias_sigma();
   out.velocity_world = s.velocity.velocity();
   out.velocity_sigma = s.velocity.sigma();
   return out;

@@ -1,7 +1,9 @@
 // Translation between frames: a per-axis Kalman filter on the velocity of the IMU point in the
 // world frame, measured by tracked positions and propagated either as constant (a random walk)
-// or with the accelerometer (specific force rotated into the world plus gravity). Gravity in the
-// world frame comes from consecutive tracked pairs and the specific force between them.
+// or with the accelerometer (specific force, less its bias, rotated into the world, plus
+// gravity). Gravity and the accelerometer bias come from GravityBiasEstimator; while a tracked
+// chain is long enough, its least-squares velocity replaces the filter's (it uses every
+// position of the chain, not one pair's difference).
 
 #include <cmath>
 
@@ -28,6 +30,13 @@ std::optional<TranslationModel> parse_translation_model(std::string_view name) {
 
 namespace inertial {
 
+namespace {
+// A chain's velocity replaces the filter's once the chain spans this much (s, frames): shorter
+// chains fix the velocity no better than one pair.
+constexpr double kChainVelocityMinTime = 0.3;
+constexpr int kChainVelocityMinFrames = 6;
+}  // namespace
+
 VelocityFilter::VelocityFilter(const InertialConfig& config)
     : model_(config.translation),
       position_sigma_(config.tracking_position_sigma),
@@ -35,16 +44,18 @@ VelocityFilter::VelocityFilter(const InertialConfig& config)
       accel_noise_(config.accelerometer_process_noise),
       max_sigma_(config.max_velocity_sigma),
       gravity_min_time_(config.gravity_min_time),
-      gravity_tau_(config.gravity_time_constant) {}
+      gravity_(config.tracking_position_sigma, config.accelerometer_bias_prior_sigma,
+               config.gravity_chain_time, config.gravity_time_constant) {}
 
 VelocityFilter::Propagation VelocityFilter::propagate(double dt,
                                                       const ImuIntegration* integration) const {
   Propagation out;
   if (model_ == TranslationModel::kAccelerometer && gravity_ready() && integration != nullptr &&
       integration->complete) {
-    const Eigen::Vector3d g = gravity();
-    out.velocity_b = v_ + integration->delta_v + g * dt;
-    out.delta_p = v_ * dt + integration->delta_p + 0.5 * g * dt * dt;
+    const Eigen::Vector3d& g = gravity_.gravity();
+    const Eigen::Vector3d& b = gravity_.accel_bias();
+    out.velocity_b = v_ + integration->delta_v - integration->Jv_accel * b + g * dt;
+    out.delta_p = v_ * dt + integration->delta_p - integration->Jp_accel * b + 0.5 * g * dt * dt;
     out.used_accelerometer = true;
   } else {
     out.velocity_b = v_;
@@ -64,8 +75,8 @@ void VelocityFilter::step(double dt, const Eigen::Vector3d& p_a, const Eigen::Ve
       v_ = mean_velocity;
       P_ = measurement_var;
       initialized_ = true;
-      observe_gravity(dt, p_b - p_a, integration);
     }
+    gravity_.step(dt, p_a, p_b, reliable, integration);
     return;
   }
   const Propagation prop = propagate(dt, integration);
@@ -74,7 +85,7 @@ void VelocityFilter::step(double dt, const Eigen::Vector3d& p_a, const Eigen::Ve
   v_ = prop.velocity_b;
   P_ += q * q * dt;
   if (!reliable) {
-    has_previous_pair_ = false;
+    gravity_.step(dt, p_a, p_b, false, integration);
     return;
   }
 
@@ -89,48 +100,27 @@ void VelocityFilter::step(double dt, const Eigen::Vector3d& p_a, const Eigen::Ve
   v_ += K * (z - v_);
   P_ *= 1.0 - K;
 
-  observe_gravity(dt, p_b - p_a, integration);
-}
-
-void VelocityFilter::observe_gravity(double dt, const Eigen::Vector3d& displacement,
-                                     const ImuIntegration* integration) {
-  if (integration == nullptr || !integration->complete) {
-    has_previous_pair_ = false;
-    return;
+  gravity_.step(dt, p_a, p_b, true, integration);
+  if (model_ == TranslationModel::kAccelerometer && gravity_ready()) {
+    if (const auto chain = gravity_.chain_velocity(kChainVelocityMinTime, kChainVelocityMinFrames)) {
+      if (chain->variance < P_) {
+        v_ = chain->velocity;
+        P_ = chain->variance;
+      }
+    }
   }
-  // Over two consecutive tracked pairs (dt1, dt2), with u = (displacement - delta_p) / dt the
-  // mean velocity less the specific force's share: g (dt1 + dt2) / 2 = u2 - u1 - delta_v1.
-  // Exact for any motion; summed over many pairs the u terms telescope, so tracking noise
-  // enters only through the first and last pair.
-  const Eigen::Vector3d u = (displacement - integration->delta_p) / dt;
-  if (has_previous_pair_) {
-    const double weight = 0.5 * (previous_dt_ + dt);
-    const double decay = std::exp(-weight / gravity_tau_);
-    gravity_sum_ = decay * gravity_sum_ + (u - previous_u_ - previous_delta_v_);
-    gravity_time_ = decay * gravity_time_ + weight;
-  }
-  previous_u_ = u;
-  previous_delta_v_ = integration->delta_v;
-  previous_dt_ = dt;
-  has_previous_pair_ = true;
-}
-
-Eigen::Vector3d VelocityFilter::gravity() const {
-  return gravity_time_ > 0 ? Eigen::Vector3d(gravity_sum_ / gravity_time_)
-                           : Eigen::Vector3d::Zero();
 }
 
 void VelocityFilter::reset_velocity() {
   v_.setZero();
   P_ = 0;
   initialized_ = false;
-  has_previous_pair_ = false;
+  gravity_.interrupt();
 }
 
 void VelocityFilter::reset() {
   reset_velocity();
-  gravity_sum_.setZero();
-  gravity_time_ = 0;
+  gravity_.reset();
 }
 
 }  // namespace inertial

@@ -26,6 +26,8 @@ Status ReconstructorConfig::validate() const {
     return bad("depth noise coefficients must be finite and non-negative");
   if (!(recovery_converged_rotation > 0 && recovery_converged_translation > 0))
     return bad("recovery convergence thresholds must be positive");
+  if (!(max_partial_seconds >= 0) || !std::isfinite(max_partial_seconds))
+    return bad("max_partial_seconds must be finite and >= 0, got " + std::to_string(max_partial_seconds));
   const Eigen::Matrix4d m = initial_pose.matrix();
   if (!m.allFinite() ||
       (initial_pose.linear().transpose() * initial_pose.linear() - Eigen::Matrix3d::Identity()).norm() > 1e-6)

@@ -18,6 +18,7 @@ const char* to_string(PoseSource source) {
   switch (source) {
     case PoseSource::kInitial: return "initial";
     case PoseSource::kIcp: return "icp";
+    case PoseSource::kIcpPartial: return "icp_partial";
     case PoseSource::kDeadReckoning: return "dead_reckoning";
     case PoseSource::kKnown: return "known";
   }
@@ -31,7 +32,8 @@ std::optional<TrackingStatus> parse_tracking_status(std::string_view name) {
 }
 
 std::optional<PoseSource> parse_pose_source(std::string_view name) {
-  for (auto s : {PoseSource::kInitial, PoseSource::kIcp, PoseSource::kDeadReckoning, PoseSource::kKnown})
+  for (auto s : {PoseSource::kInitial, PoseSource::kIcp, PoseSource::kIcpPartial, PoseSource::kDeadReckoning,
+                 PoseSource::kKnown})
     if (name == to_string(s)) return s;
   return std::nullopt;
 }
@@ -43,12 +45,14 @@ TrackingDecision TrackingStateMachine::start() {
   return {TrackingStatus::kTracking, PoseSource::kInitial, true, 0, false};
 }
 
-TrackingDecision TrackingStateMachine::step(bool icp_reliable, bool converged) {
+TrackingDecision TrackingStateMachine::step(bool icp_reliable, bool converged, bool icp_partial) {
   if (!started_) return start();
   TrackingDecision d;
   if (status_ == TrackingStatus::kTracking) {
     if (icp_reliable) {
       d = {TrackingStatus::kTracking, PoseSource::kIcp, true, 0, false};
+    } else if (icp_partial) {
+      d = {TrackingStatus::kTracking, PoseSource::kIcpPartial, true, 0, false};
     } else {
       status_ = TrackingStatus::kLost;
       d = {TrackingStatus::kLost, PoseSource::kDeadReckoning, false, 0, false};

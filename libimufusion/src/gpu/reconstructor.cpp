@@ -2,6 +2,7 @@
 // runs Gauss-Newton, the IMU estimators and the tracking state machine.
 
 #include <chrono>
+#include <cstdio>
 #include <cmath>
 #include <string>
 #include <utility>
@@ -65,6 +66,7 @@ struct Reconstructor::Impl {
   TrackingStateMachine machine;
 
   Trajectory trajectory;
+  double last_constrained_time = 0;  // s: the last frame whose pose ICP fixed in all directions
   Eigen::Isometry3d T_world_reference = Eigen::Isometry3d::Identity();  // pose of the raycast
   bool has_reference = false;
 
@@ -163,9 +165,12 @@ struct Reconstructor::Impl {
     return n > 0 ? sum / static_cast<double>(n) : 0.0;
   }
 
-  Result<IcpResult> align(const DepthImage& depth, const Eigen::Isometry3d& T_world_seed, FrameTimings& timings) {
+  Result<IcpResult> align(const DepthImage& depth, const Eigen::Isometry3d& T_world_seed,
+                          const MotionPrediction& prediction, FrameTimings& timings) {
     const auto t0 = Clock::now();
     IcpConfig icp = config.icp;
+    icp.keep_seed_in_degenerate_directions = config.partial_icp_with_imu && prediction.rotation_from_imu &&
+                                             prediction.translation_predicted && !machine.recovering_or_lost();
     icp.reliability.max_residual_per_weight =
         std::max(icp.reliability.max_residual_per_weight, 2.0 * mean_noise_variance(depth));
     if (machine.recovering_or_lost()) {
@@ -251,16 +256,24 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
     const StampedPose& previous = m.trajectory.back();
     if (m.navigator) r.imu = m.navigator->predict(previous.timestamp, timestamp);
     const Eigen::Isometry3d T_world_seed = previous.T_world_camera * r.imu.T_a_b;
-    auto icp = m.align(depth, T_world_seed, r.timings);
+    auto icp = m.align(depth, T_world_seed, r.imu, r.timings);
     if (!icp) return icp.error();
+    if (icp->partial && timestamp - m.last_constrained_time > m.config.max_partial_seconds) {
+      icp->partial = false;
+      char limit[32];
+      std::snprintf(limit, sizeof limit, "%.3g", m.config.max_partial_seconds);
+      icp->reason += std::string("; partial for more than ") + limit + " s";
+    }
     r.icp_ran = true;
     r.icp = *icp;
-    decision = m.machine.step(icp->reliable, icp->quality.converged);
-    r.T_world_camera = decision.source == PoseSource::kIcp ? m.T_world_reference * icp->T_ref_cur : T_world_seed;
+    decision = m.machine.step(icp->reliable, icp->quality.converged, icp->partial);
+    const bool icp_pose = decision.source == PoseSource::kIcp || decision.source == PoseSource::kIcpPartial;
+    r.T_world_camera = icp_pose ? m.T_world_reference * icp->T_ref_cur : T_world_seed;
     if (m.navigator)
       m.navigator->observe(previous.timestamp, timestamp, previous.T_world_camera, r.T_world_camera,
                            decision.source == PoseSource::kIcp);
   }
+  if (decision.source == PoseSource::kIcp || decision.source == PoseSource::kInitial) m.last_constrained_time = timestamp;
   r.status = decision.status;
   r.source = decision.source;
   r.recovered = decision.recovered;
@@ -293,6 +306,7 @@ Result<FrameResult> Reconstructor::fuse_with_pose(double timestamp, const DepthI
   r.T_world_camera = T_world_camera;
   r.status = TrackingStatus::kTracking;
   r.source = PoseSource::kKnown;
+  m.last_constrained_time = timestamp;
   if (!m.trajectory.empty() && m.navigator) {
     const StampedPose& previous = m.trajectory.back();
     r.imu = m.navigator->predict(previous.timestamp, timestamp);
