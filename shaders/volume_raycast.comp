@@ -34,7 +34,7 @@ uint lookup_home(ivec3 b) {
 }
 
 // The pool index of lattice point l (world point l * voxel_size), or VOLUME_NO_BLOCK when its
-// block is unallocated. home_coord must be the block of the current sample.
+// block is unallocated, through the caches (home first).
 uint voxel_index(ivec3 l) {
   ivec3 lb = l >> 3;  // floor(l / VOLUME_BLOCK_SIDE)
   uint block = home_block;
@@ -68,9 +68,11 @@ bool trilinear_tsdf(vec3 g, out float tsdf) {
   return true;
 }
 
-// The gradient of the trilinear TSDF (truncation units per voxel) and the trilinear colour at
-// lattice coordinates g, from the 8 corners of its cell; false when a corner is unobserved.
-bool hit_cell(vec3 g, out vec3 gradient, out vec3 rgb) {
+// At lattice coordinates g: the central differences of the trilinear TSDF one voxel apart along
+// each axis, F(g + e) - F(g - e) (truncation units), and the trilinear colour; false when a
+// lattice point they read is unobserved. The 6 trilinear samples read 32 distinct lattice points:
+// the 8 corners of g's cell and, per axis, the 8 beyond its two faces across that axis.
+bool hit_gradient_color(vec3 g, out vec3 gradient, out vec3 rgb) {
   ivec3 base = ivec3(floor(g));
   vec3 f = g - vec3(base);
   lookup_home(base >> 3);
@@ -82,10 +84,26 @@ bool hit_cell(vec3 g, out vec3 gradient, out vec3 rgb) {
     if (index == VOLUME_NO_BLOCK) return false;
     uint word0 = tsdf_weight[index];
     if (unpack_weight(word0) == 0u) return false;
-    vec3 s = mix(1.0 - f, f, vec3(o));
-    vec3 sign = vec3(o) * 2.0 - 1.0;
-    gradient += unpack_tsdf(word0) * sign * vec3(s.y * s.z, s.x * s.z, s.x * s.y);
+    vec3 s = mix(1.0 - f, f, vec3(o));        // trilinear weight per axis
+    vec3 d = mix(-f, 1.0 - f, vec3(o));       // its weight in F(g + e) - F(g - e) per axis
+    gradient += unpack_tsdf(word0) * d * vec3(s.y * s.z, s.x * s.z, s.x * s.y);
     rgb += s.x * s.y * s.z * unpackUnorm4x8(voxel_colors[index]).rgb;
+  }
+  for (int c = 0; c < 24; ++c) {
+    int axis = c >> 3, a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
+    int beyond = c & 1;  // 0: the lattice point at offset -1 along the axis, 1: at offset 2
+    int j = (c >> 1) & 1, k = (c >> 2) & 1;
+    ivec3 o = ivec3(0);
+    o[axis] = 3 * beyond - 1;
+    o[a1] = j;
+    o[a2] = k;
+    uint index = voxel_index(base + o);
+    if (index == VOLUME_NO_BLOCK) return false;
+    uint word0 = tsdf_weight[index];
+    if (unpack_weight(word0) == 0u) return false;
+    float across = (j == 1 ? f[a1] : 1.0 - f[a1]) * (k == 1 ? f[a2] : 1.0 - f[a2]);
+    float along = beyond == 1 ? f[axis] : f[axis] - 1.0;
+    gradient[axis] += unpack_tsdf(word0) * along * across;
   }
   return true;
 }
@@ -121,11 +139,11 @@ void main() {
   float t_range_lo = uintBitsToFloat(~lo_bits) * ray_scale;
   float t_range_hi = uintBitsToFloat(range[2u * cell + 1u]) * ray_scale;
   float t = max(t_near, t_range_lo);
-  // Per axis, the block face a ray leaves through (0: lower, 1: upper) and 1 / direction (a
-  // direction parallel to an axis never leaves through its faces).
+  // Per axis, the block face a ray leaves through (0: lower, 1: upper) and 1 / direction; an
+  // axis the ray runs parallel to puts its faces' t at "never" (3e38).
   vec3 exit_face = step(0.0, dir);
   vec3 inverse_dir = mix(1.0 / dir, vec3(3.0e38), lessThan(abs(dir), vec3(1.0e-12)));
-  vec3 t_far_faces = mix(vec3(0.0), vec3(3.0e38), lessThan(abs(dir), vec3(1.0e-12)));
+  vec3 parallel_faces = mix(vec3(0.0), vec3(3.0e38), lessThan(abs(dir), vec3(1.0e-12)));
   float t_far = min(p.far_depth * ray_scale, t_range_hi);
   float previous_tsdf = 0.0;
   float previous_t = 0.0;
@@ -139,7 +157,7 @@ void main() {
     vec3 g = (origin + t * dir) / p.voxel_size;  // lattice coordinates of the sample
     if (lookup_home(ivec3(floor(g)) >> 3) == VOLUME_NO_BLOCK) {
       have_previous = false;
-      vec3 t_faces = max((block_length * (vec3(home_coord) + exit_face) - origin) * inverse_dir, t_far_faces);
+      vec3 t_faces = max((block_length * (vec3(home_coord) + exit_face) - origin) * inverse_dir, parallel_faces);
       t = max(t, min(t_faces.x, min(t_faces.y, t_faces.z))) + VOLUME_RAYCAST_EXIT_MARGIN * p.voxel_size;
       continue;
     }
@@ -172,8 +190,9 @@ void main() {
     return;
   }
   vec3 hit = origin + hit_t * dir;
+  // Normal: central differences of the trilinear TSDF, one voxel apart.
   vec3 gradient, rgb_hit;
-  if (!hit_cell(hit / p.voxel_size, gradient, rgb_hit) || length(gradient) <= 0.0) {
+  if (!hit_gradient_color(hit / p.voxel_size, gradient, rgb_hit) || length(gradient) <= 0.0) {
     write_miss(i);
     return;
   }

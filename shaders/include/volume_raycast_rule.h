@@ -13,10 +13,10 @@
 //   - otherwise the trilinear TSDF at w (all 8 corners observed, else step half a voxel): a
 //     + to - change from the previous trilinear sample is the hit, refined linearly; else step
 //     0.8 * tsdf * truncation, at least half a voxel.
-// Leaving unallocated blocks through their faces makes the samples in allocated blocks
-// independent of where the march starts. Any step but the last kind forgets the previous trilinear sample. At the hit, the normal is
-// the gradient of the trilinear TSDF of the cell holding it and the colour its trilinear colour;
-// a corner of that cell unobserved is a miss.
+// Any step but the last kind forgets the previous trilinear sample. Leaving unallocated blocks
+// through their faces makes the samples in allocated blocks independent of where the march
+// starts. At the hit, the normal is the central difference of the trilinear TSDF one voxel
+// apart along each axis, the colour the trilinear colour; an unobserved corner is a miss.
 #ifndef VOLUME_RAYCAST_RULE_H
 #define VOLUME_RAYCAST_RULE_H
 

@@ -177,11 +177,12 @@ const StoredVoxel* CpuVolume::voxel(const Eigen::Vector3i& l) const {
   return &found->second[static_cast<std::size_t>(voxel_index(i.x(), i.y(), i.z()))];
 }
 
-bool CpuVolume::trilinear_tsdf(const Eigen::Vector3d& g, double* tsdf) const {
+bool CpuVolume::trilinear(const Eigen::Vector3d& g, double* tsdf, Eigen::Vector3d* rgb) const {
   const Eigen::Vector3d base_d = g.array().floor();
   const Eigen::Vector3i base = base_d.cast<int>();
   const Eigen::Vector3d f = g - base_d;
   *tsdf = 0.0;
+  if (rgb != nullptr) rgb->setZero();
   for (int corner = 0; corner < 8; ++corner) {
     const Eigen::Vector3i o(corner & 1, (corner >> 1) & 1, corner >> 2);
     const StoredVoxel* voxel = this->voxel(base + o);
@@ -189,32 +190,9 @@ bool CpuVolume::trilinear_tsdf(const Eigen::Vector3d& g, double* tsdf) const {
     double weight = 1.0;
     for (int axis = 0; axis < 3; ++axis) weight *= o[axis] != 0 ? f[axis] : 1.0 - f[axis];
     *tsdf += weight * (voxel->tsdf / kTsdfScale);
-  }
-  return true;
-}
-
-bool CpuVolume::hit_cell(const Eigen::Vector3d& g, Eigen::Vector3d* gradient,
-                         Eigen::Vector3d* rgb) const {
-  const Eigen::Vector3d base_d = g.array().floor();
-  const Eigen::Vector3i base = base_d.cast<int>();
-  const Eigen::Vector3d f = g - base_d;
-  gradient->setZero();
-  rgb->setZero();
-  for (int corner = 0; corner < 8; ++corner) {
-    const Eigen::Vector3i o(corner & 1, (corner >> 1) & 1, corner >> 2);
-    const StoredVoxel* voxel = this->voxel(base + o);
-    if (voxel == nullptr || voxel->weight == 0) return false;
-    // Per-axis interpolation weights and their derivatives along the axis.
-    Eigen::Vector3d s, ds;
-    for (int axis = 0; axis < 3; ++axis) {
-      s[axis] = o[axis] != 0 ? f[axis] : 1.0 - f[axis];
-      ds[axis] = o[axis] != 0 ? 1.0 : -1.0;
-    }
-    const double tsdf = voxel->tsdf / kTsdfScale;
-    *gradient += tsdf * Eigen::Vector3d(ds.x() * s.y() * s.z(), s.x() * ds.y() * s.z(),
-                                        s.x() * s.y() * ds.z());
+    if (rgb == nullptr) continue;
     for (int c = 0; c < 3; ++c)
-      (*rgb)[c] += s.prod() * (voxel->color[static_cast<std::size_t>(c)] / 255.0);
+      (*rgb)[c] += weight * (voxel->color[static_cast<std::size_t>(c)] / 255.0);
   }
   return true;
 }
@@ -268,7 +246,7 @@ RaycastImages CpuVolume::raycast(const Intrinsics& k, const Eigen::Isometry3d& T
           t += 0.8 * tsdf * truncation_ - voxel_size_;
           continue;
         }
-        if (!observed || !trilinear_tsdf(g, &tsdf)) {
+        if (!observed || !trilinear(g, &tsdf, nullptr)) {
           have_previous = false;
           t += (observed ? 0.5 : 1.0) * voxel_size_;
           continue;
@@ -285,8 +263,18 @@ RaycastImages CpuVolume::raycast(const Intrinsics& k, const Eigen::Isometry3d& T
       }
       if (hit_t < 0.0) continue;
       const Eigen::Vector3d hit = origin + hit_t * dir;
+      // Normal: central differences of the trilinear TSDF, one voxel apart.
+      const Eigen::Vector3d g_hit = hit / voxel_size_;
       Eigen::Vector3d gradient, rgb_hit;
-      if (!hit_cell(hit / voxel_size_, &gradient, &rgb_hit) || !(gradient.norm() > 0.0)) continue;
+      double tsdf_hit = 0.0;
+      bool ok = true;
+      for (int axis = 0; axis < 3 && ok; ++axis) {
+        double plus = 0.0, minus = 0.0;
+        ok = trilinear(g_hit + Eigen::Vector3d::Unit(axis), &plus, nullptr) &&
+             trilinear(g_hit - Eigen::Vector3d::Unit(axis), &minus, nullptr);
+        gradient[axis] = plus - minus;
+      }
+      if (!ok || !(gradient.norm() > 0.0) || !trilinear(g_hit, &tsdf_hit, &rgb_hit)) continue;
       const Eigen::Vector3d vertex = R.transpose() * (hit - origin);
       const Eigen::Vector3d normal = R.transpose() * gradient.normalized();
       out.vertices.data[index] << vertex.cast<float>(), 1.0f;

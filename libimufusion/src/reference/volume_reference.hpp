@@ -94,13 +94,10 @@ class CpuVolume {
   double truncation() const { return truncation_; }
 
  private:
-  /// Trilinear TSDF (truncation units) at lattice coordinates g (world point / voxel_size);
-  /// false when one of the 8 surrounding lattice points is unobserved.
-  bool trilinear_tsdf(const Eigen::Vector3d& g, double* tsdf) const;
-  /// The gradient of the trilinear TSDF (truncation units per voxel) and the trilinear colour
-  /// (0..1) at lattice coordinates g, from the 8 corners of its cell; false when one is
-  /// unobserved.
-  bool hit_cell(const Eigen::Vector3d& g, Eigen::Vector3d* gradient, Eigen::Vector3d* rgb) const;
+  /// Trilinear TSDF (truncation units) and, when rgb is given, colour (0..1) at lattice
+  /// coordinates g (world point / voxel_size); false when one of the 8 surrounding lattice
+  /// points is unobserved.
+  bool trilinear(const Eigen::Vector3d& g, double* tsdf, Eigen::Vector3d* rgb) const;
 
   double voxel_size_;
   double truncation_;
