@@ -123,15 +123,16 @@ TEST_F(ScanTool, WallStretchIsReportedAsLostAndNotFused) {
       const double t = std::stod(row.at("timestamp"));
       if (row.at("pose_source") == "icp" || row.at("pose_source") == "initial") last_constrained = t;
       if (row.at("pose_source") == "icp_partial") {
-        ++partial;
         EXPECT_TRUE(flags.empty()) << "partial alignment without an IMU at t=" << row.at("timestamp");
-        EXPECT_EQ(row.at("status"), "tracking") << " t=" << row.at("timestamp");
-        EXPECT_EQ(row.at("fused"), "1") << " t=" << row.at("timestamp");
         EXPECT_EQ(row.at("icp_reliable"), "0") << " t=" << row.at("timestamp");
         const int directions = std::stoi(row.at("icp_directions"));
         EXPECT_GE(directions, 3) << " t=" << row.at("timestamp");
         EXPECT_LT(directions, 6) << " t=" << row.at("timestamp");
-        EXPECT_LE(t - last_constrained, ReconstructorConfig{}.max_partial_seconds + 1e-6) << " t=" << row.at("timestamp");
+        if (row.at("status") == "tracking") {
+          ++partial;
+          EXPECT_EQ(row.at("fused"), "1") << " t=" << row.at("timestamp");
+          EXPECT_LE(t - last_constrained, ReconstructorConfig{}.max_partial_seconds + 1e-6) << " t=" << row.at("timestamp");
+        }
       }
       if (t >= stretch.begin && t <= stretch.end) {
         ++in_stretch;
@@ -141,7 +142,8 @@ TEST_F(ScanTool, WallStretchIsReportedAsLostAndNotFused) {
         EXPECT_EQ(row.at("fused"), "0") << flags << " t=" << row.at("timestamp");
       }
       if (row.at("status") == "lost") {
-        EXPECT_EQ(row.at("pose_source"), "dead_reckoning") << flags << " t=" << row.at("timestamp");
+        EXPECT_TRUE(row.at("pose_source") == "dead_reckoning" || row.at("pose_source") == "icp_partial")
+            << flags << " t=" << row.at("timestamp") << " " << row.at("pose_source");
       }
       if (row.at("pose_source") != "initial") {
         EXPECT_EQ(row.at("imu_rotation"), flags.empty() ? "1" : "0") << flags << " t=" << row.at("timestamp");
@@ -151,7 +153,7 @@ TEST_F(ScanTool, WallStretchIsReportedAsLostAndNotFused) {
     const auto summary = read_json(out / "summary.json");
     EXPECT_EQ(summary["settings"]["imu"], flags.empty());
     EXPECT_GE(summary["lost_frames"].get<std::size_t>() + partial, in_stretch);
-    EXPECT_EQ(summary["partial_icp_frames"].get<std::size_t>(), partial);
+    EXPECT_GE(summary["partial_icp_frames"].get<std::size_t>(), partial);
   }
 }
 

@@ -136,11 +136,22 @@ TEST(TrackingStateMachine, PartialIcpKeepsTrackingAndFusesWithItsOwnPoseSource) 
   expect(m.step(true, false, true), TrackingStatus::kTracking, PoseSource::kIcp, true);
 }
 
+TEST(TrackingStateMachine, PartialIcpBeyondItsFusionBudgetIsLostButKeepsItsPose) {
+  TrackingStateMachine m;
+  m.start();
+  expect(m.step(false, false, true, false), TrackingStatus::kLost, PoseSource::kIcpPartial, false);
+  EXPECT_TRUE(m.recovering_or_lost());
+}
+
 TEST(TrackingStateMachine, PartialIcpNeitherRecoversNorCountsWhileLost) {
   auto m = lost_machine(2);
-  expect(m.step(false, true, true), TrackingStatus::kLost, PoseSource::kDeadReckoning, false);
+  // The partial pose beats dead reckoning, but is not fused and does not count.
+  expect(m.step(false, true, true), TrackingStatus::kLost, PoseSource::kIcpPartial, false);
+  expect(m.step(false, true, false), TrackingStatus::kLost, PoseSource::kDeadReckoning, false);
   expect(m.step(true, true), TrackingStatus::kRecovering, PoseSource::kIcp, false);
   // While recovering, a partial alignment breaks the count like any unreliable one.
-  expect(m.step(false, true, true), TrackingStatus::kLost, PoseSource::kDeadReckoning, false);
+  expect(m.step(false, true, true), TrackingStatus::kLost, PoseSource::kIcpPartial, false);
+  expect(m.step(true, true), TrackingStatus::kRecovering, PoseSource::kIcp, false);
+  expect(m.step(true, true), TrackingStatus::kTracking, PoseSource::kIcp, true);
 }
 

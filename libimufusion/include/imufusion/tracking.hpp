@@ -4,20 +4,23 @@
 // whether the frame is fused into the volume. Pure logic, no GPU.
 //
 //   tracking   --ICP reliable-->                      tracking     pose: ICP,   fused
-//   tracking   --ICP partial-->                       tracking     pose: ICP partial, fused
+//   tracking   --ICP partial, may fuse-->             tracking     pose: ICP partial, fused
+//   tracking   --ICP partial, may not fuse-->         lost         pose: ICP partial, not fused
 //   tracking   --ICP unreliable-->                    lost         pose: dead reckoning, not fused
 //   lost       --ICP unreliable-->                    lost         pose: dead reckoning, not fused
 //   lost       --ICP reliable and converged-->        recovering   pose: ICP,   not fused
 //   recovering --reliable and converged, k-th time--> tracking once k == recovery_frames, fused
 //   recovering --reliable, not converged-->           recovering   pose: ICP (count unchanged)
 //   recovering --ICP unreliable-->                    lost         pose: dead reckoning, not fused
+//   lost / recovering --ICP partial-->                lost         pose: ICP partial, not fused
 //
 // "ICP partial" (IcpResult::partial) is an IMU-seeded alignment that passed every test but the
 // condition number: ICP moved the pose along the directions the depth constrains and the IMU's
 // prediction stands in the others. Fusing it is safe because the unconstrained directions are
-// exactly those along which the visible surface looks the same (a wall slid along itself). It
-// counts as unreliable while lost or recovering: a recovery must be confirmed in all six
-// directions.
+// exactly those along which the visible surface looks the same (a wall slid along itself) --
+// for a while: the caller says whether a partial frame may still be fused (the IMU's share drifts
+// with time). A partial pose is always better than dead reckoning, so lost frames take it too,
+// but it never counts towards recovery, which must be confirmed in all six directions.
 //
 // The first frame of a scan (or after reset) defines the world: status tracking, pose source
 // `initial`, fused. Dead reckoning means M_{t-1} * dIMU: the previous pose moved by the IMU's
@@ -62,8 +65,10 @@ class TrackingStateMachine {
   TrackingDecision start();
   /// A later frame, given its ICP verdict. `converged` is the ICP's own convergence flag; it
   /// matters only while lost or recovering, where alignment must settle before it counts.
-  /// `icp_partial`: IcpResult::partial (only looked at when icp_reliable is false).
-  TrackingDecision step(bool icp_reliable, bool converged, bool icp_partial = false);
+  /// `icp_partial`: IcpResult::partial (only looked at when icp_reliable is false);
+  /// `partial_may_fuse`: whether a partial frame may still be fused while tracking.
+  TrackingDecision step(bool icp_reliable, bool converged, bool icp_partial = false,
+                        bool partial_may_fuse = true);
   /// Back to before the first frame.
   void reset();
 

@@ -45,19 +45,15 @@ TrackingDecision TrackingStateMachine::start() {
   return {TrackingStatus::kTracking, PoseSource::kInitial, true, 0, false};
 }
 
-TrackingDecision TrackingStateMachine::step(bool icp_reliable, bool converged, bool icp_partial) {
+TrackingDecision TrackingStateMachine::step(bool icp_reliable, bool converged, bool icp_partial,
+                                            bool partial_may_fuse) {
   if (!started_) return start();
-  TrackingDecision d;
+  const PoseSource lost_source = icp_partial ? PoseSource::kIcpPartial : PoseSource::kDeadReckoning;
   if (status_ == TrackingStatus::kTracking) {
-    if (icp_reliable) {
-      d = {TrackingStatus::kTracking, PoseSource::kIcp, true, 0, false};
-    } else if (icp_partial) {
-      d = {TrackingStatus::kTracking, PoseSource::kIcpPartial, true, 0, false};
-    } else {
-      status_ = TrackingStatus::kLost;
-      d = {TrackingStatus::kLost, PoseSource::kDeadReckoning, false, 0, false};
-    }
-    return d;
+    if (icp_reliable) return {TrackingStatus::kTracking, PoseSource::kIcp, true, 0, false};
+    if (icp_partial && partial_may_fuse) return {TrackingStatus::kTracking, PoseSource::kIcpPartial, true, 0, false};
+    status_ = TrackingStatus::kLost;
+    return {TrackingStatus::kLost, lost_source, false, 0, false};
   }
   // Lost or recovering: only a reliable alignment that has settled counts towards recovery. While
   // recovering, a reliable frame that has not settled within its iterations neither counts nor
@@ -67,7 +63,7 @@ TrackingDecision TrackingStateMachine::step(bool icp_reliable, bool converged, b
   if (!(icp_reliable && converged)) {
     status_ = TrackingStatus::kLost;
     good_frames_ = 0;
-    return {TrackingStatus::kLost, PoseSource::kDeadReckoning, false, 0, false};
+    return {TrackingStatus::kLost, icp_reliable ? PoseSource::kDeadReckoning : lost_source, false, 0, false};
   }
   good_frames_ = std::min(good_frames_ + 1, std::max(config_.recovery_frames, 1));
   if (good_frames_ >= config_.recovery_frames) {

@@ -169,8 +169,8 @@ struct Reconstructor::Impl {
                           const MotionPrediction& prediction, FrameTimings& timings) {
     const auto t0 = Clock::now();
     IcpConfig icp = config.icp;
-    icp.keep_seed_in_degenerate_directions = config.partial_icp_with_imu && prediction.rotation_from_imu &&
-                                             prediction.translation_predicted && !machine.recovering_or_lost();
+    icp.keep_seed_in_degenerate_directions =
+        config.partial_icp_with_imu && prediction.rotation_from_imu && prediction.translation_predicted;
     icp.reliability.max_residual_per_weight =
         std::max(icp.reliability.max_residual_per_weight, 2.0 * mean_noise_variance(depth));
     if (machine.recovering_or_lost()) {
@@ -258,15 +258,15 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
     const Eigen::Isometry3d T_world_seed = previous.T_world_camera * r.imu.T_a_b;
     auto icp = m.align(depth, T_world_seed, r.imu, r.timings);
     if (!icp) return icp.error();
-    if (icp->partial && timestamp - m.last_constrained_time > m.config.max_partial_seconds) {
-      icp->partial = false;
+    const bool partial_may_fuse = timestamp - m.last_constrained_time <= m.config.max_partial_seconds;
+    if (icp->partial && !partial_may_fuse && !m.machine.recovering_or_lost()) {
       char limit[32];
       std::snprintf(limit, sizeof limit, "%.3g", m.config.max_partial_seconds);
       icp->reason += std::string("; partial for more than ") + limit + " s";
     }
     r.icp_ran = true;
     r.icp = *icp;
-    decision = m.machine.step(icp->reliable, icp->quality.converged, icp->partial);
+    decision = m.machine.step(icp->reliable, icp->quality.converged, icp->partial, partial_may_fuse);
     const bool icp_pose = decision.source == PoseSource::kIcp || decision.source == PoseSource::kIcpPartial;
     r.T_world_camera = icp_pose ? m.T_world_reference * icp->T_ref_cur : T_world_seed;
     if (m.navigator)
