@@ -60,8 +60,8 @@ struct ReconstructorConfig {
   /// s: the longest run of partial frames since the last fully constrained one; beyond it a
   /// partial frame counts as unreliable (lost, not fused). The IMU's unconstrained directions
   /// drift: dead reckoning the wall scene (bench/inertial_models, 10 seeds, accelerometer model)
-  /// drifts 7 / 14 mm (median / p95) after 0.5 s, 16 / 34 mm after 1 s and 54 / 110 mm after
-  /// 2 s, so 0.8 s keeps the p95 within ~25 mm, under the ~3 cm a scan can absorb.
+  /// drifts 8 / 12 mm (median / p95) after 0.5 s, 14 / 21 mm after 0.8 s, 19 / 28 mm after 1 s
+  /// and 56 / 99 mm after 2 s; 0.8 s keeps the p95 near 2 cm, inside the 3 cm a scan may be off.
   double max_partial_seconds = 0.8;
   DeviceOptions device;
   /// Axial depth noise of the sensor, sigma(z) = a + b (z - z0)^2 metres (Kinect-like default:

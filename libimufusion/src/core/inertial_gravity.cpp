@@ -105,19 +105,6 @@ void GravityBiasEstimator::step(double dt, const Eigen::Vector3d& p_a, const Eig
   solve();
 }
 
-std::optional<GravityBiasEstimator::ChainVelocity> GravityBiasEstimator::chain_velocity(
-    double min_time, int min_frames) const {
-  if (!solved_ || chain_frames_ < std::max(min_frames, kMinChainFrames) || chain_tau_ < min_time)
-    return std::nullopt;
-  // v_k = v_0 + g tau + V - Jv b: a linear map of the unknowns.
-  Eigen::Matrix<double, 3, 12> a;
-  a << Eigen::Matrix3d::Zero(), Eigen::Matrix3d::Identity(), chain_tau_ * Eigen::Matrix3d::Identity(), -Jv_;
-  ChainVelocity out;
-  out.velocity = a * x_ + V_;
-  out.variance = (a * covariance_ * a.transpose()).diagonal().maxCoeff();
-  return out;
-}
-
 void GravityBiasEstimator::interrupt() {
   if (chain_frames_ == 0) return;
   end_chain();

@@ -167,14 +167,6 @@ class GravityBiasEstimator {
   const Eigen::Vector3d& gravity_sigma() const { return gravity_sigma_; }
   const Eigen::Vector3d& bias_sigma() const { return bias_sigma_; }
 
-  /// The velocity (world, m/s) at the last frame of the current chain and its largest per-axis
-  /// variance ((m/s)^2); nullopt while the chain is shorter than min_time or min_frames.
-  struct ChainVelocity {
-    Eigen::Vector3d velocity;
-    double variance;
-  };
-  std::optional<ChainVelocity> chain_velocity(double min_time, int min_frames) const;
-
   /// Ends the current chain (a break in the frame sequence), keeping its information.
   void interrupt();
   void reset();
