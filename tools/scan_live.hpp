@@ -107,6 +107,8 @@ class LiveImu {
     j["clock_offset_host_s"] = estimate_.offset;
     j["clock_offset_frame_s"] = imu_to_frame_offset();
     j["clock_offset_confidence"] = estimate_.confidence;
+    j["clock_offset_standard_error_s"] = estimate_.standard_error;
+    j["clock_offset_correlation_host_s"] = estimate_.correlation_offset;
     j["clock_offset_intervals"] = estimate_.intervals;
     return j;
   }

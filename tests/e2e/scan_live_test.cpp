@@ -167,6 +167,8 @@ TEST_F(ScanLive, TakesTheImuFromAUdpStreamAtItsRealRate) {
   EXPECT_LE(stream["samples"].get<std::size_t>(), sent.load());
   EXPECT_EQ(stream["malformed"], 0);
   EXPECT_NE(stream["clock_offset_source"], "none");
+  EXPECT_GE(stream["clock_offset_standard_error_s"].get<double>(), 0.0);
+  EXPECT_TRUE(stream.contains("clock_offset_correlation_host_s"));
   // The stream starts as the first frame is read, both at their real rate, so the IMU clock maps
   // onto the frame clock with a small offset (the sender's start delay; the host clock itself is
   // far from both), whatever the machine's load does to the frame rate.
