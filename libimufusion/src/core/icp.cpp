@@ -175,8 +175,7 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
     // Partial: every test but the condition passes (judged with the condition let through).
     IcpReliabilityThresholds t = config.reliability;
     t.max_condition = std::numeric_limits<double>::infinity();
-    std::string why;
-    if (judge_icp(result.quality, t, &why)) {
+    if (judge_icp(result.quality, t, nullptr)) {
       result.partial = true;
       result.reason += "; " + std::to_string(result.quality.constrained_directions) +
                        " of 6 directions from ICP, the rest from the initial pose";

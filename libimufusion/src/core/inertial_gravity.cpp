@@ -74,16 +74,16 @@ void GravityBiasEstimator::solve() {
   for (int i = 0; i < 9; ++i) H(i, i) += kRidge;
   const Eigen::LDLT<Mat12> ldlt(H);
   if (ldlt.info() != Eigen::Success) return;
-  x_ = ldlt.solve(r);
-  covariance_ = ldlt.solve(Mat12::Identity());
-  solved_ = x_.allFinite() && covariance_.allFinite();
-  if (!solved_) return;
+  const Vec12 x = ldlt.solve(r);
+  // The covariance's columns of (g, b): enough for their sigmas.
+  const Eigen::Matrix<double, 12, 6> covariance = ldlt.solve(Mat12::Identity().rightCols<6>());
+  if (!x.allFinite() || !covariance.allFinite()) return;
   // Only a chain with enough frames or an earlier chain's information determines gravity.
   const bool informed = chain_frames_ >= kMinChainFrames || support_time_ > 0;
-  gravity_ = x_.segment<3>(6);
-  bias_ = x_.tail<3>();
-  gravity_sigma_ = informed ? Eigen::Vector3d(covariance_.block<3, 3>(6, 6).diagonal().cwiseSqrt()) : infinite3();
-  bias_sigma_ = covariance_.bottomRightCorner<3, 3>().diagonal().cwiseSqrt();
+  gravity_ = x.segment<3>(6);
+  bias_ = x.tail<3>();
+  gravity_sigma_ = informed ? Eigen::Vector3d(covariance.block<3, 3>(6, 0).diagonal().cwiseSqrt()) : infinite3();
+  bias_sigma_ = covariance.bottomRightCorner<3, 3>().diagonal().cwiseSqrt();
 }
 
 void GravityBiasEstimator::step(double dt, const Eigen::Vector3d& p_a, const Eigen::Vector3d& p_b,
@@ -116,9 +116,6 @@ void GravityBiasEstimator::reset() {
   prior_info_.setZero();
   prior_vec_.setZero();
   support_time_ = 0;
-  x_.setZero();
-  covariance_.setZero();
-  solved_ = false;
   gravity_.setZero();
   bias_.setZero();
   gravity_sigma_ = infinite3();

@@ -8,7 +8,6 @@
 #include <cmath>
 #include <deque>
 #include <limits>
-#include <optional>
 #include <span>
 #include <vector>
 
@@ -191,9 +190,6 @@ class GravityBiasEstimator {
   Eigen::Vector3d D_ = Eigen::Vector3d::Zero(), V_ = Eigen::Vector3d::Zero();
   Eigen::Matrix3d Jp_ = Eigen::Matrix3d::Zero(), Jv_ = Eigen::Matrix3d::Zero();
   // The solution.
-  Vec12 x_ = Vec12::Zero();
-  Mat12 covariance_ = Mat12::Zero();
-  bool solved_ = false;
   Eigen::Vector3d gravity_ = Eigen::Vector3d::Zero(), bias_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d gravity_sigma_, bias_sigma_;
 };
@@ -230,6 +226,9 @@ class VelocityFilter {
   void reset();
 
  private:
+  /// The filter's part of step(): propagation and, for a reliable pair, the measurement update.
+  void update_velocity(double dt, const Eigen::Vector3d& p_a, const Eigen::Vector3d& p_b, bool reliable,
+                       const ImuIntegration* integration);
   TranslationModel model_;
   double position_sigma_, cv_noise_, accel_noise_, max_sigma_;
   double gravity_min_time_;

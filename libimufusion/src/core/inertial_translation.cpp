@@ -61,6 +61,13 @@ VelocityFilter::Propagation VelocityFilter::propagate(double dt,
 void VelocityFilter::step(double dt, const Eigen::Vector3d& p_a, const Eigen::Vector3d& p_b,
                           bool reliable, const ImuIntegration* integration) {
   if (!(dt > 0)) return;
+  update_velocity(dt, p_a, p_b, reliable, integration);
+  // Gravity and the bias learn from the pair after the velocity was propagated with them.
+  gravity_.step(dt, p_a, p_b, reliable, integration);
+}
+
+void VelocityFilter::update_velocity(double dt, const Eigen::Vector3d& p_a, const Eigen::Vector3d& p_b,
+                                     bool reliable, const ImuIntegration* integration) {
   // Variance of a velocity from two positions dt apart.
   const double measurement_var = 2.0 * position_sigma_ * position_sigma_ / (dt * dt);
   const Eigen::Vector3d mean_velocity = (p_b - p_a) / dt;
@@ -70,7 +77,6 @@ void VelocityFilter::step(double dt, const Eigen::Vector3d& p_a, const Eigen::Ve
       P_ = measurement_var;
       initialized_ = true;
     }
-    gravity_.step(dt, p_a, p_b, reliable, integration);
     return;
   }
   const Propagation prop = propagate(dt, integration);
@@ -78,10 +84,7 @@ void VelocityFilter::step(double dt, const Eigen::Vector3d& p_a, const Eigen::Ve
   const Eigen::Vector3d v_a = v_;
   v_ = prop.velocity_b;
   P_ += q * q * dt;
-  if (!reliable) {
-    gravity_.step(dt, p_a, p_b, false, integration);
-    return;
-  }
+  if (!reliable) return;
 
   // The end velocity implied by the tracked displacement: with the accelerometer, the
   // displacement's shape within the pair is known (v_b = mean + dv - dp / dt); without it, the
@@ -93,8 +96,6 @@ void VelocityFilter::step(double dt, const Eigen::Vector3d& p_a, const Eigen::Ve
   const double K = P_ / (P_ + measurement_var);
   v_ += K * (z - v_);
   P_ *= 1.0 - K;
-
-  gravity_.step(dt, p_a, p_b, true, integration);
 }
 
 void VelocityFilter::reset_velocity() {
