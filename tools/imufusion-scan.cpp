@@ -236,6 +236,7 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
   j["dead_reckoned_frames"] = stats.dead_reckoned;
   j["partial_icp_frames"] = stats.partial;
   j["recoveries"] = stats.recoveries;
+  j["relocalizations"] = stats.relocalizations;
   j["frames_to_recover"] = stats.recovery_frames;
   j["mean_icp_iterations"] = stats.mean_icp_iterations;
   j["median_icp_iterations"] = stats.median_icp_iterations;

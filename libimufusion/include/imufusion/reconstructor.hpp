@@ -63,6 +63,23 @@ struct ReconstructorConfig {
   /// drifts 8 / 12 mm (median / p95) after 0.5 s, 14 / 21 mm after 0.8 s, 19 / 28 mm after 1 s
   /// and 56 / 99 mm after 2 s; 0.8 s keeps the p95 near 2 cm, inside the 3 cm a scan may be off.
   double max_partial_seconds = 0.8;
+  /// Relocalization while lost, with the gyro's rotation (IMU runs only): every
+  /// `relocalization_interval` lost frames, the frame's coarsest-level points are matched to a
+  /// distance field of the model (cells of `relocalization_cell` metres) over the translations
+  /// within a radius of the dead-reckoned position, at the dead-reckoned rotation, and full ICP
+  /// runs from the `relocalization_candidates` best fits. A candidate whose ICP is reliable in all
+  /// six directions and converged takes the frame (status recovering: the usual hysteresis
+  /// follows). The radius grows as the drift of double-integrating a false acceleration of
+  /// `relocalization_drift_acceleration` (m/s^2) since the last fully constrained frame, from the
+  /// coarsest ICP level's max_distance up to `relocalization_max_radius`: 0.17 m/s^2 is gravity
+  /// leaking through a 1 degree tilt error, what the gyro noise of phone-grade IMUs (0.003
+  /// rad/s/sqrt(Hz), as in the shared sequences) and its bias error accumulate in about 4 s.
+  bool relocalize_with_imu = true;
+  int relocalization_interval = 5;
+  double relocalization_cell = 0.05;
+  int relocalization_candidates = 3;
+  double relocalization_drift_acceleration = 0.17;
+  double relocalization_max_radius = 1.5;
   DeviceOptions device;
   /// Axial depth noise of the sensor, sigma(z) = a + b (z - z0)^2 metres (Kinect-like default:
   /// Nguyen, Izadi and Lovell 2012, also imufusion's synthetic sensor). ICP's residual test
@@ -89,6 +106,7 @@ struct FrameTimings {
   double icp_ms = 0;
   double integrate_ms = 0;
   double raycast_ms = 0;
+  double relocalize_ms = 0;  // the relocalization search with its raycasts and ICP, when it ran
   double total_ms = 0;
   std::vector<KernelTiming> kernels;
 };
@@ -101,6 +119,9 @@ struct FrameResult {
   PoseSource source = PoseSource::kInitial;
   bool fused = false;
   bool recovered = false;  // this frame ended a loss
+  /// The frame's pose came from a relocalization search (ReconstructorConfig::relocalize_with_imu)
+  /// rather than from ICP started at the dead-reckoned pose.
+  bool relocalized = false;
   /// ICP of this frame against the model (not run for the first frame or known poses).
   bool icp_ran = false;
   IcpResult icp;
@@ -145,7 +166,15 @@ class Reconstructor {
   /// calibration estimates (gyro bias, mounting rotation) are kept.
   Status reset();
 
-  /// One pose per frame since create() or reset().
+  /// One pose per frame since create() or reset(). When a loss ends in tracking again, the poses
+  /// of the frames in between (dead-reckoned or partial, never fused) are re-estimated: the
+  /// correction the recovery found (its ICP pose against the dead-reckoned one) is spread back
+  /// to the last fully constrained frame: the rotation in proportion to time (a gyro bias
+  /// error grows linearly), the translation as the drift that this tilt causes through gravity
+  /// (cubic in time) plus the rest of the end error shared between a velocity error (linear) and
+  /// an accelerometer bias error (quadratic) by the navigator's sigmas when the loss began
+  /// (drift_correction in src/core/relocalizer.hpp). FrameResult keeps the pose each frame had
+  /// when it was tracked.
   const Trajectory& trajectory() const;
   const ReconstructorConfig& config() const;
   const DeviceInfo& device() const;

@@ -15,7 +15,8 @@ namespace imufusion {
 /// The header of frames.csv. Columns: timestamp (s), status, pose_source, icp_iterations
 /// (Gauss-Newton steps run for the frame, all levels), residual (r, m^2), inliers (n),
 /// weight_sum, condition (kappa), fused (0/1), ms (wall time of the frame), then icp_reliable,
-/// icp_reason, icp_directions (of the 6, those ICP updated), imu_rotation (0/1: the seed's rotation came from the gyro), imu_coverage,
+/// icp_reason, icp_directions (of the 6, those ICP updated), relocalized (0/1: the pose came
+/// from the relocalization search), imu_rotation (0/1: the seed's rotation came from the gyro), imu_coverage,
 /// gyro_bias_x/y/z (rad/s), R_camera_imu_estimated, R_camera_imu_sigma_deg, blocks
 /// (allocated after the frame), tx ty tz qx qy qz qw (T_world_camera).
 std::string frames_csv_header();
@@ -30,6 +31,7 @@ struct ScanStatistics {
   std::size_t recoveries = 0;  // losses that ended in tracking again
   std::size_t dead_reckoned = 0;
   std::size_t partial = 0;  // frames with pose source icp_partial (degenerate depth, IMU-aided)
+  std::size_t relocalizations = 0;  // frames placed by the relocalization search
   double mean_icp_iterations = 0;    // over frames where ICP ran
   double median_icp_iterations = 0;  // over frames where ICP ran
   double mean_frame_ms = 0;

@@ -21,7 +21,8 @@
 namespace imufusion::synth {
 
 /// `room`: a furnished room. `wall`: the room with a ~2 s stretch facing a bare wall at ~1 m
-/// while moving. `fast`: the room with bursts of ~90 deg/s rotation and faster walking.
+/// while moving; the walk around the room pauses for the episode, so the camera turns back to
+/// the part of the room it left (the scan can only recover onto what it has scanned). `fast`: the room with bursts of ~90 deg/s rotation and faster walking.
 enum class SceneKind { kRoom, kWall, kFast };
 
 const char* to_string(SceneKind kind);
@@ -181,6 +182,9 @@ class CameraMotion {
     Eigen::Vector3d position;
     double yaw = 0, pitch = 0, roll = 0;  // radians; yaw about world z from +x, pitch up
   };
+  /// Time along the orbit: tau, except that for `wall` the orbit eases to a stop as the turn
+  /// to the wall begins and resumes as the turn back ends.
+  double orbit_time(double tau) const;
   LookPose orbit_pose(double tau) const;
   LookPose wall_pose(double tau) const;
   LookPose look_pose(double tau) const;

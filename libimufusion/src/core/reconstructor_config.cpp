@@ -28,6 +28,16 @@ Status ReconstructorConfig::validate() const {
     return bad("recovery convergence thresholds must be positive");
   if (!(max_partial_seconds >= 0) || !std::isfinite(max_partial_seconds))
     return bad("max_partial_seconds must be finite and >= 0, got " + std::to_string(max_partial_seconds));
+  if (relocalization_interval < 1)
+    return bad("relocalization_interval must be at least 1, got " + std::to_string(relocalization_interval));
+  if (relocalization_candidates < 1 || relocalization_candidates > 16)
+    return bad("relocalization_candidates must be 1..16, got " + std::to_string(relocalization_candidates));
+  if (!(relocalization_cell > 0 && relocalization_cell <= 1))
+    return bad("relocalization_cell must be in (0, 1] m, got " + std::to_string(relocalization_cell));
+  if (!(relocalization_drift_acceleration >= 0) || !std::isfinite(relocalization_drift_acceleration))
+    return bad("relocalization_drift_acceleration must be finite and >= 0");
+  if (!(relocalization_max_radius >= 0 && relocalization_max_radius <= 10))
+    return bad("relocalization_max_radius must be 0..10 m, got " + std::to_string(relocalization_max_radius));
   const Eigen::Matrix4d m = initial_pose.matrix();
   if (!m.allFinite() ||
       (initial_pose.linear().transpose() * initial_pose.linear() - Eigen::Matrix3d::Identity()).norm() > 1e-6)

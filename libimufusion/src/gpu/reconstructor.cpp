@@ -7,6 +7,7 @@
 #include <string>
 #include <utility>
 
+#include "core/relocalizer.hpp"
 #include "gpu/command_sequence.hpp"
 #include "gpu/context.hpp"
 #include "gpu/icp_kernels.hpp"
@@ -67,6 +68,26 @@ struct Reconstructor::Impl {
 
   Trajectory trajectory;
   double last_constrained_time = 0;  // s: the last frame whose pose ICP fixed in all directions
+  std::size_t last_constrained_index = 0;  // its index in the trajectory
+
+  // Relocalization: the model's distance field, built at the first attempt after the model last
+  // changed, and the lost frames since the last attempt.
+  SurfaceDistanceField field;
+  bool field_current = false;
+  int lost_frames_since_attempt = 0;
+  struct Relocalization {
+    IcpResult icp;
+    Eigen::Isometry3d T_world_camera;
+  };
+  // The first frame that ICP placed after a loss, and where dead reckoning had put it: once the
+  // recovery is confirmed, the lost stretch back to `anchor` is corrected by the difference.
+  struct PendingCorrection {
+    std::size_t anchor = 0, index = 0;
+    Eigen::Isometry3d estimate, corrected;
+    DriftPrior prior;
+  };
+  std::optional<PendingCorrection> pending;
+  DriftPrior constrained_prior;  // the inertial estimates at the last fully constrained frame
   Eigen::Isometry3d T_world_reference = Eigen::Isometry3d::Identity();  // pose of the raycast
   bool has_reference = false;
 
@@ -146,7 +167,7 @@ struct Reconstructor::Impl {
     IMUFUSION_RETURN_IF_ERROR(reference.upload_maps(*vertices, *normals));
     T_world_reference = T_world_camera;
     has_reference = true;
-    timings.raycast_ms = ms_since(t0);
+    timings.raycast_ms += ms_since(t0);
     return {};
   }
 
@@ -180,11 +201,108 @@ struct Reconstructor::Impl {
     }
     gpu::GpuNormalEquationSource source(icp_kernels, icp_seq, current, reference, &timings.kernels);
     auto result = run_icp(source, icp, T_world_reference.inverse() * T_world_seed);
-    timings.icp_ms = ms_since(t0);
+    timings.icp_ms += ms_since(t0);
     return result;
   }
 
+  // Whether this frame searches for its pose (see ReconstructorConfig::relocalize_with_imu).
+  bool may_relocalize(const IcpResult& icp, const MotionPrediction& prediction) {
+    if (machine.status() != TrackingStatus::kLost) {
+      lost_frames_since_attempt = 0;
+      return false;
+    }
+    if (!config.relocalize_with_imu || !prediction.rotation_from_imu || icp.reliable) return false;
+    if (++lost_frames_since_attempt < config.relocalization_interval) return false;
+    lost_frames_since_attempt = 0;
+    return true;
+  }
+
+  Status build_field() {
+    auto snapshot = volume.snapshot();
+    if (!snapshot) return snapshot.error();
+    std::vector<Eigen::Vector3d> surface = volume_surface_points(*snapshot);
+    // Only the region a search can reach: an unbounded scene costs no more than a room.
+    const double cutoff = 4 * config.relocalization_cell;
+    const Eigen::Vector3d anchor = trajectory[last_constrained_index].T_world_camera.translation();
+    const double reach = config.relocalization_max_radius + config.preprocess.max_depth + cutoff;
+    std::erase_if(surface, [&](const Eigen::Vector3d& p) { return (p - anchor).cwiseAbs().maxCoeff() > reach; });
+    field = SurfaceDistanceField(surface, config.relocalization_cell, cutoff);
+    field_current = true;
+    return {};
+  }
+
+  // The translation search and ICP from its best candidates; the reliable, converged alignment
+  // with the lowest residual per weight, if any.
+  Result<std::optional<Relocalization>> relocalize(const DepthImage& depth, const Eigen::Isometry3d& T_world_estimate,
+                                                   double timestamp, FrameTimings& timings) {
+    const auto t0 = Clock::now();
+    const double icp_ms = timings.icp_ms, raycast_ms = timings.raycast_ms;
+    if (!field_current) IMUFUSION_RETURN_IF_ERROR(build_field());
+    const int coarse = config.preprocess.levels - 1;
+    const double lost_seconds = timestamp - last_constrained_time;
+    const double radius = std::min(config.relocalization_max_radius,
+                                   std::max<double>(config.icp.max_distance[static_cast<std::size_t>(coarse)],
+                                                    0.5 * config.relocalization_drift_acceleration * lost_seconds * lost_seconds));
+    const Intrinsics& k = current.intrinsics(coarse);
+    auto map = download_map(current.vertices(coarse), k.width, k.height);
+    if (!map) return map.error();
+    std::vector<Eigen::Vector3d> points;
+    for (const Eigen::Vector4f& v : map->data)
+      if (v.w() > 0.5f) points.push_back(v.head<3>().cast<double>());
+    constexpr std::size_t kMaxPoints = 800;  // enough for a chamfer fit; the search is linear in it
+    if (points.size() > kMaxPoints) {
+      std::vector<Eigen::Vector3d> kept;
+      const double stride = static_cast<double>(points.size()) / kMaxPoints;
+      for (std::size_t i = 0; i < kMaxPoints; ++i) kept.push_back(points[static_cast<std::size_t>(static_cast<double>(i) * stride)]);
+      points = std::move(kept);
+    }
+    const auto candidates = field.search(points, T_world_estimate.linear(), T_world_estimate.translation(), radius,
+                                         config.relocalization_candidates);
+    std::optional<Relocalization> best;
+    for (const TranslationCandidate& c : candidates) {
+      if (c.near_fraction < config.icp.reliability.min_inlier_fraction) continue;
+      Eigen::Isometry3d T_candidate = T_world_estimate;
+      T_candidate.translation() = c.translation;
+      IMUFUSION_RETURN_IF_ERROR(update_reference(T_candidate, timings));
+      // No IMU prediction: the full six-direction solve, which a wall alone cannot pass.
+      auto icp = align(depth, T_candidate, MotionPrediction{}, timings);
+      if (!icp) return icp.error();
+      if (!icp->reliable || !icp->quality.converged) continue;
+      if (!best || icp->quality.residual_per_weight < best->icp.quality.residual_per_weight)
+        best = Relocalization{*icp, T_world_reference * icp->T_ref_cur};
+    }
+    timings.icp_ms = icp_ms;
+    timings.raycast_ms = raycast_ms;
+    timings.relocalize_ms = ms_since(t0);
+    return best;
+  }
+
+  // See Reconstructor::trajectory().
+  void correct_lost_stretch(const PendingCorrection& c) {
+    const double t0 = trajectory[c.anchor].timestamp;
+    const double span = trajectory[c.index].timestamp - t0;
+    if (!(span > 0)) return;
+    const Eigen::AngleAxisd rotation(c.corrected.linear() * c.estimate.linear().transpose());
+    const Eigen::Vector3d translation = c.corrected.translation() - c.estimate.translation();
+    for (std::size_t i = c.anchor + 1; i < c.index; ++i) {
+      Eigen::Isometry3d& T = trajectory[i].T_world_camera;
+      const double s = trajectory[i].timestamp - t0;
+      T.linear() = Eigen::AngleAxisd(s / span * rotation.angle(), rotation.axis()).toRotationMatrix() * T.linear();
+      T.translation() += drift_correction(s, span, translation, rotation.angle() * rotation.axis(), c.prior);
+    }
+  }
+
   InertialStatus inertial_status() const { return navigator ? navigator->status() : InertialStatus{}; }
+
+  DriftPrior drift_prior() const {
+    DriftPrior prior;
+    if (!navigator) return prior;
+    const InertialStatus s = navigator->status();
+    if (s.gravity_ready) prior.gravity_world = s.gravity_world;
+    prior.velocity_sigma = s.velocity_sigma;
+    prior.accel_bias_sigma = s.accel_bias_sigma.norm() / std::sqrt(3.0);
+    return prior;
+  }
 };
 
 Reconstructor::Reconstructor(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -258,6 +376,19 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
     const Eigen::Isometry3d T_world_seed = previous.T_world_camera * r.imu.T_a_b;
     auto icp = m.align(depth, T_world_seed, r.imu, r.timings);
     if (!icp) return icp.error();
+    Eigen::Isometry3d T_world_icp = m.T_world_reference * icp->T_ref_cur;
+    // Where the frame would be without a recovery: the partial pose, else dead reckoning.
+    const Eigen::Isometry3d T_world_estimate = icp->partial ? T_world_icp : T_world_seed;
+    if (m.may_relocalize(*icp, r.imu)) {
+      auto found = m.relocalize(depth, T_world_estimate, timestamp, r.timings);
+      if (!found) return found.error();
+      if (*found) {
+        icp = (*found)->icp;
+        T_world_icp = (*found)->T_world_camera;
+        r.relocalized = true;
+      }
+    }
+    const bool was_lost = m.machine.status() == TrackingStatus::kLost;
     const bool partial_may_fuse = timestamp - m.last_constrained_time <= m.config.max_partial_seconds;
     if (icp->partial && !partial_may_fuse && !m.machine.recovering_or_lost()) {
       char limit[32];
@@ -268,12 +399,21 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
     r.icp = *icp;
     decision = m.machine.step(icp->reliable, icp->quality.converged, icp->partial, partial_may_fuse);
     const bool icp_pose = decision.source == PoseSource::kIcp || decision.source == PoseSource::kIcpPartial;
-    r.T_world_camera = icp_pose ? m.T_world_reference * icp->T_ref_cur : T_world_seed;
+    r.T_world_camera = icp_pose ? T_world_icp : T_world_seed;
+    // A relocalized frame's pose did not come from the motion since the previous frame.
     if (m.navigator)
       m.navigator->observe(previous.timestamp, timestamp, previous.T_world_camera, r.T_world_camera,
-                           decision.source == PoseSource::kIcp);
+                           decision.source == PoseSource::kIcp && !r.relocalized);
+    if (was_lost && decision.status == TrackingStatus::kRecovering)
+      m.pending = Impl::PendingCorrection{m.last_constrained_index, r.index, T_world_estimate, r.T_world_camera,
+                                          m.constrained_prior};
+    if (decision.status == TrackingStatus::kLost) m.pending.reset();
   }
-  if (decision.source == PoseSource::kIcp || decision.source == PoseSource::kInitial) m.last_constrained_time = timestamp;
+  if (decision.source == PoseSource::kIcp || decision.source == PoseSource::kInitial) {
+    m.last_constrained_time = timestamp;
+    m.last_constrained_index = r.index;
+    m.constrained_prior = m.drift_prior();
+  }
   r.status = decision.status;
   r.source = decision.source;
   r.recovered = decision.recovered;
@@ -282,9 +422,14 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
     if (!stats) return stats.error();
     r.integration = *stats;
     r.fused = true;
+    m.field_current = false;
   }
   IMUFUSION_RETURN_IF_ERROR(m.update_reference(r.T_world_camera, r.timings));
   m.trajectory.push_back({timestamp, r.T_world_camera});
+  if (decision.recovered && m.pending) {
+    m.correct_lost_stretch(*m.pending);
+    m.pending.reset();
+  }
   r.inertial = m.inertial_status();
   r.timings.total_ms = ms_since(t0);
   return r;
@@ -307,6 +452,9 @@ Result<FrameResult> Reconstructor::fuse_with_pose(double timestamp, const DepthI
   r.status = TrackingStatus::kTracking;
   r.source = PoseSource::kKnown;
   m.last_constrained_time = timestamp;
+  m.last_constrained_index = r.index;
+  m.constrained_prior = m.drift_prior();
+  m.pending.reset();
   if (!m.trajectory.empty() && m.navigator) {
     const StampedPose& previous = m.trajectory.back();
     r.imu = m.navigator->predict(previous.timestamp, timestamp);
@@ -318,6 +466,7 @@ Result<FrameResult> Reconstructor::fuse_with_pose(double timestamp, const DepthI
   if (!stats) return stats.error();
   r.integration = *stats;
   r.fused = true;
+  m.field_current = false;
   m.trajectory.push_back({timestamp, T_world_camera});
   r.inertial = m.inertial_status();
   r.timings.total_ms = ms_since(t0);
@@ -368,6 +517,11 @@ Status Reconstructor::reset() {
   if (m.navigator) m.navigator->reset();
   m.trajectory.clear();
   m.has_reference = false;
+  m.field_current = false;
+  m.pending.reset();
+  m.last_constrained_time = 0;
+  m.last_constrained_index = 0;
+  m.lost_frames_since_attempt = 0;
   m.T_world_reference = Eigen::Isometry3d::Identity();
   return {};
 }

@@ -33,6 +33,7 @@ constexpr double kTurnOutEnd = 9.5;
 constexpr double kStretchMid = 0.5 * (kStretchBegin + kStretchEnd);
 constexpr double kWallCameraX = 5.0;  // 1 m in front of the x = 6 wall
 constexpr double kWallSpeed = 0.3;    // m/s along the wall (y)
+constexpr double kOrbitEase = 0.5;    // s: the orbit stops over this, and starts again over this
 
 // Fast scene: rotation bursts every kBurstPeriod seconds, each a sin^4 bump of kBurstYaw over
 // kBurstDuration (peak rate 1.3 pi A / D = ~67 deg/s; each bump turns out and back, so one half
@@ -49,6 +50,12 @@ constexpr double kBurstShift = 0.08;  // metres
 double smooth_step(double a, double b, double x) {
   const double s = std::clamp((x - a) / (b - a), 0.0, 1.0);
   return s * s * s * (s * (6.0 * s - 15.0) + 10.0);
+}
+
+/// Integral of smooth_step(0, 1, x) from 0 to x, for x in [0, 1].
+double smooth_step_integral(double x) {
+  const double s = std::clamp(x, 0.0, 1.0);
+  return s * s * s * s * (s * (s - 3.0) + 2.5);
 }
 
 /// sin^4 bump on [0, 1]: zero with three vanishing derivatives at both ends.
@@ -89,13 +96,26 @@ CameraMotion::CameraMotion(SceneKind kind, std::uint64_t seed, double start_time
   target_wander_[2] = random_wave(rng, 0.05, 0.15, 0.05, 0.15);
   speed_wave_ = random_wave(rng, 0.1, 0.25, 0.05, 0.15);
   if (kind == SceneKind::kWall) {
-    // The orbit passes the x = 6 side (orbit angle 0) in the middle of the wall stretch.
-    phase0_ = -direction_ * speed_ / (0.5 * (kOrbitRx + kOrbitRy)) * kStretchMid;
+    // The orbit pauses at the x = 6 side (orbit angle 0) for the wall episode.
+    phase0_ = -direction_ * speed_ / (0.5 * (kOrbitRx + kOrbitRy)) * orbit_time(kStretchMid);
     speed_wave_.amplitude = 0.0;
   }
 }
 
-CameraMotion::LookPose CameraMotion::orbit_pose(double tau) const {
+double CameraMotion::orbit_time(double tau) const {
+  if (kind_ != SceneKind::kWall || tau <= kTurnInBegin) return tau;
+  // The orbit's speed falls as 1 - smooth_step over kOrbitEase after the turn in begins and
+  // rises back as smooth_step over kOrbitEase before the turn back ends (C2 in tau).
+  const double stop_end = kTurnInBegin + kOrbitEase, start_begin = kTurnOutEnd - kOrbitEase;
+  double t = kTurnInBegin + kOrbitEase * (std::min(tau, stop_end) - kTurnInBegin) / kOrbitEase -
+             kOrbitEase * smooth_step_integral((tau - kTurnInBegin) / kOrbitEase);
+  if (tau > start_begin) t += kOrbitEase * smooth_step_integral((tau - start_begin) / kOrbitEase);
+  if (tau > kTurnOutEnd) t += tau - kTurnOutEnd;
+  return t;
+}
+
+CameraMotion::LookPose CameraMotion::orbit_pose(double tau_walk) const {
+  const double tau = orbit_time(tau_walk);
   const double omega = speed_ / (0.5 * (kOrbitRx + kOrbitRy));  // rad/s
   // Integral of (1 + speed wave): the walking speed varies by the wave's amplitude.
   const double f = speed_wave_.frequency_hz;
@@ -108,10 +128,10 @@ CameraMotion::LookPose CameraMotion::orbit_pose(double tau) const {
   pose.position = Eigen::Vector3d(kOrbitCenter.x() + kOrbitRx * std::cos(phi),
                                   kOrbitCenter.y() + kOrbitRy * std::sin(phi), kEyeHeight);
   for (int a = 0; a < 3; ++a) {
-    pose.position[a] += position_jitter_[a][0].at(tau) + position_jitter_[a][1].at(tau);
+    pose.position[a] += position_jitter_[a][0].at(tau_walk) + position_jitter_[a][1].at(tau_walk);
   }
   Eigen::Vector3d target = kLookTarget;
-  for (int a = 0; a < 3; ++a) target[a] += target_wander_[a].at(tau);
+  for (int a = 0; a < 3; ++a) target[a] += target_wander_[a].at(tau_walk);
   const Eigen::Vector3d view = target - pose.position;
   // Unwrap around the inward direction phi + pi, so yaw is continuous in tau.
   const double reference = phi + kPi;

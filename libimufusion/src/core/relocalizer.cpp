@@ -1,0 +1,182 @@
+#include "core/relocalizer.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <unordered_set>
+
+#include <Eigen/Geometry>
+
+namespace imufusion {
+namespace {
+
+struct CellHash {
+  std::size_t operator()(const Eigen::Vector3i& c) const {
+    return (static_cast<std::size_t>(c.x()) * 73856093u) ^ (static_cast<std::size_t>(c.y()) * 19349663u) ^
+           (static_cast<std::size_t>(c.z()) * 83492791u);
+  }
+};
+
+Eigen::Vector3i cell_of(const Eigen::Vector3d& p, double cell) {
+  return (p / cell).array().floor().cast<int>();
+}
+
+}  // namespace
+
+SurfaceDistanceField::SurfaceDistanceField(const std::vector<Eigen::Vector3d>& surface, double cell,
+                                           double cutoff)
+    : cell_(cell), cutoff_(cutoff) {
+  if (surface.empty() || !(cell > 0) || !(cutoff > 0)) return;
+  // One representative per cell keeps the build linear in the surface area.
+  std::unordered_set<Eigen::Vector3i, CellHash> seen;
+  std::vector<Eigen::Vector3d> reps;
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d hi = -lo;
+  for (const Eigen::Vector3d& p : surface) {
+    if (!p.allFinite() || !seen.insert(cell_of(p, cell)).second) continue;
+    reps.push_back(p);
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  if (reps.empty()) return;
+  const int reach = static_cast<int>(std::ceil(cutoff / cell));
+  origin_ = lo - Eigen::Vector3d::Constant(reach * cell);
+  size_ = (((hi - origin_) / cell).array().floor().cast<int>() + reach + 1).matrix();
+  distance_.assign(static_cast<std::size_t>(size_.x()) * size_.y() * size_.z(), static_cast<float>(cutoff));
+  for (const Eigen::Vector3d& p : reps) {
+    const Eigen::Vector3i c = ((p - origin_) / cell).array().round().cast<int>();
+    for (int dz = -reach; dz <= reach; ++dz)
+      for (int dy = -reach; dy <= reach; ++dy)
+        for (int dx = -reach; dx <= reach; ++dx) {
+          const Eigen::Vector3i q = c + Eigen::Vector3i(dx, dy, dz);
+          const std::int64_t i = index(q);
+          if (i < 0) continue;
+          const double d = (origin_ + q.cast<double>() * cell - p).norm();
+          float& slot = distance_[static_cast<std::size_t>(i)];
+          slot = std::min(slot, static_cast<float>(std::min(d, cutoff)));
+        }
+  }
+}
+
+std::int64_t SurfaceDistanceField::index(const Eigen::Vector3i& c) const {
+  if ((c.array() < 0).any() || (c.array() >= size_.array()).any()) return -1;
+  return c.x() + static_cast<std::int64_t>(size_.x()) * (c.y() + static_cast<std::int64_t>(size_.y()) * c.z());
+}
+
+double SurfaceDistanceField::distance(const Eigen::Vector3d& p) const {
+  if (empty() || !p.allFinite()) return cutoff_;
+  const std::int64_t i = index(((p - origin_) / cell_).array().round().cast<int>());
+  return i < 0 ? cutoff_ : distance_[static_cast<std::size_t>(i)];
+}
+
+std::vector<TranslationCandidate> SurfaceDistanceField::search(
+    const std::vector<Eigen::Vector3d>& points_camera, const Eigen::Matrix3d& R_world_camera,
+    const Eigen::Vector3d& center, double radius, int count) const {
+  std::vector<TranslationCandidate> out;
+  if (empty() || points_camera.empty() || count <= 0 || !(radius >= 0) || !center.allFinite()) return out;
+  // Every point's grid cell at offset zero; an offset shifts all of them by whole cells.
+  std::vector<Eigen::Vector3i> base;
+  base.reserve(points_camera.size());
+  for (const Eigen::Vector3d& p : points_camera)
+    if (p.allFinite())
+      base.push_back(((R_world_camera * p + center - origin_) / cell_).array().round().cast<int>());
+  if (base.empty()) return out;
+  const int n = static_cast<int>(std::floor(radius / cell_));
+  const int side = 2 * n + 1;
+  const double inf = std::numeric_limits<double>::infinity();
+  std::vector<double> cost(static_cast<std::size_t>(side) * side * side, inf);
+  auto at = [&](int x, int y, int z) -> double& {
+    return cost[static_cast<std::size_t>((x + n) + side * ((y + n) + side * (z + n)))];
+  };
+  const double cut2 = cutoff_ * cutoff_;
+  for (int z = -n; z <= n; ++z)
+    for (int y = -n; y <= n; ++y)
+      for (int x = -n; x <= n; ++x) {
+        if (x * x + y * y + z * z > n * n) continue;
+        const Eigen::Vector3i o(x, y, z);
+        double sum = 0;
+        for (const Eigen::Vector3i& b : base) {
+          const std::int64_t i = index(b + o);
+          const double d = i < 0 ? cutoff_ : distance_[static_cast<std::size_t>(i)];
+          sum += d * d;
+        }
+        at(x, y, z) = sum / static_cast<double>(base.size());
+      }
+  // Local minima (no lower neighbour among the 26) that fit at least some points.
+  struct Minimum {
+    Eigen::Vector3i offset;
+    double cost;
+  };
+  std::vector<Minimum> minima;
+  for (int z = -n; z <= n; ++z)
+    for (int y = -n; y <= n; ++y)
+      for (int x = -n; x <= n; ++x) {
+        const double c = at(x, y, z);
+        if (!(c < cut2)) continue;
+        bool lowest = true;
+        for (int dz = -1; dz <= 1 && lowest; ++dz)
+          for (int dy = -1; dy <= 1 && lowest; ++dy)
+            for (int dx = -1; dx <= 1 && lowest; ++dx) {
+              const int qx = x + dx, qy = y + dy, qz = z + dz;
+              if (std::abs(qx) > n || std::abs(qy) > n || std::abs(qz) > n) continue;
+              if (at(qx, qy, qz) < c) lowest = false;
+            }
+        if (lowest) minima.push_back({Eigen::Vector3i(x, y, z), c});
+      }
+  std::sort(minima.begin(), minima.end(), [](const Minimum& a, const Minimum& b) { return a.cost < b.cost; });
+  std::vector<Eigen::Vector3i> taken;
+  for (const Minimum& m : minima) {
+    if (static_cast<int>(out.size()) >= count) break;
+    // A plateau of equal minima counts once: keep candidates at least two cells apart.
+    const bool distinct = std::none_of(taken.begin(), taken.end(), [&](const Eigen::Vector3i& t) {
+      return (t - m.offset).cwiseAbs().maxCoeff() < 2;
+    });
+    if (!distinct) continue;
+    taken.push_back(m.offset);
+    TranslationCandidate c;
+    c.translation = center + m.offset.cast<double>() * cell_;
+    c.cost = m.cost;
+    std::size_t near = 0;
+    for (const Eigen::Vector3i& b : base) {
+      const std::int64_t i = index(b + m.offset);
+      if (i >= 0 && distance_[static_cast<std::size_t>(i)] <= cell_) ++near;
+    }
+    c.near_fraction = static_cast<double>(near) / static_cast<double>(base.size());
+    out.push_back(c);
+  }
+  return out;
+}
+
+Eigen::Vector3d drift_correction(double s, double T, const Eigen::Vector3d& end_translation,
+                                 const Eigen::Vector3d& end_rotation, const DriftPrior& prior) {
+  if (!(T > 0)) return end_translation;
+  s = std::clamp(s, 0.0, T);
+  // Estimated acceleration minus true: delta(s) x g with delta(s) = end_rotation s / T, so the
+  // position error (estimate - truth) is (end_rotation x g) s^3 / (6 T).
+  const Eigen::Vector3d tilt_rate = end_rotation.cross(prior.gravity_world) / (6.0 * T);
+  const auto tilt_correction = [&](double x) -> Eigen::Vector3d { return -tilt_rate * x * x * x; };
+  const Eigen::Vector3d rest = end_translation - tilt_correction(T);
+  // Velocity error v s and bias error a s^2 / 2: Cov(e(x), e(T)) = sv^2 x T + sa^2 x^2 T^2 / 4.
+  const double v2 = prior.velocity_sigma * prior.velocity_sigma;
+  const double a2 = prior.accel_bias_sigma * prior.accel_bias_sigma;
+  const auto cov = [&](double x) { return v2 * x * T + a2 * x * x * T * T / 4.0; };
+  const double weight = cov(T) > 0 ? cov(s) / cov(T) : s / T;
+  return tilt_correction(s) + weight * rest;
+}
+
+std::vector<Eigen::Vector3d> volume_surface_points(const HostVolume& volume) {
+  std::vector<Eigen::Vector3d> points;
+  for (const VolumeBlock& block : volume.blocks) {
+    for (int k = 0; k < kBlockSide; ++k)
+      for (int j = 0; j < kBlockSide; ++j)
+        for (int i = 0; i < kBlockSide; ++i) {
+          const Voxel& v = block.voxels[static_cast<std::size_t>(voxel_index(i, j, k))];
+          if (v.weight > 0 && std::abs(v.tsdf) < 0.5f)
+            points.push_back((block.coord * kBlockSide + Eigen::Vector3i(i, j, k)).cast<double>() *
+                             static_cast<double>(volume.voxel_size));
+        }
+  }
+  return points;
+}
+
+}  // namespace imufusion

@@ -1,0 +1,80 @@
+#pragma once
+// Relocalization after a long loss: where is the camera, given the model, the frame's points and
+// an orientation the gyroscope still knows well?
+//
+// Dead reckoning keeps the rotation within a degree or two over seconds, but the translation
+// drifts by decimetres (an uncorrectable tilt error turns gravity into a false acceleration), far
+// beyond ICP's basin. So the search is over translation only: a distance field of the model's
+// surface on a coarse grid, and for every grid offset within a radius of the dead-reckoned
+// position the robust chamfer cost of the frame's points (mean of min(d, cutoff)^2). The lowest
+// local minima are the candidates; the caller runs full ICP from each and accepts only an
+// alignment that is reliable in all six directions. Pure C++, no GPU.
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "imufusion/volume.hpp"
+
+namespace imufusion {
+
+struct TranslationCandidate {
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();  // world, metres
+  double cost = 0;        // mean of min(d, cutoff)^2 over the points, m^2
+  double near_fraction = 0;  // points whose distance is within one cell
+};
+
+/// Unsigned distance to the nearest surface point, sampled at the centres of a regular grid that
+/// covers the surface and `cutoff` around it; min(distance, cutoff) everywhere.
+class SurfaceDistanceField {
+ public:
+  SurfaceDistanceField() = default;
+  /// `surface`: world points on the surface (any density; one per cell is kept).
+  SurfaceDistanceField(const std::vector<Eigen::Vector3d>& surface, double cell, double cutoff);
+
+  bool empty() const { return distance_.empty(); }
+  double cell() const { return cell_; }
+  double cutoff() const { return cutoff_; }
+  /// Distance at the nearest grid centre; cutoff outside the grid.
+  double distance(const Eigen::Vector3d& p) const;
+
+  /// The `count` best translations t (lowest cost first, distinct local minima of the cost over
+  /// grid offsets of one cell) such that R * p + t fits the surface, searched over the cells
+  /// within `radius` of `center`. `points_camera`: the frame's points in its camera frame.
+  std::vector<TranslationCandidate> search(const std::vector<Eigen::Vector3d>& points_camera,
+                                           const Eigen::Matrix3d& R_world_camera,
+                                           const Eigen::Vector3d& center, double radius,
+                                           int count) const;
+
+ private:
+  std::int64_t index(const Eigen::Vector3i& c) const;
+  double cell_ = 0.05, cutoff_ = 0.25;
+  Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();  // centre of cell (0, 0, 0)
+  Eigen::Vector3i size_ = Eigen::Vector3i::Zero();
+  std::vector<float> distance_;
+};
+
+/// What is known about a dead-reckoned stretch's error sources when it began.
+struct DriftPrior {
+  Eigen::Vector3d gravity_world = Eigen::Vector3d::Zero();  // m/s^2; zero: no tilt term
+  double velocity_sigma = 0;     // m/s, 1 sigma per axis, of the velocity at the start
+  double accel_bias_sigma = 0;   // m/s^2, 1 sigma per axis, of the accelerometer bias
+};
+
+/// The correction (truth - estimate, world, metres) of a dead-reckoned position at time s of a
+/// stretch [0, T] whose error was zero at 0 and was measured at T by the recovery: translation
+/// `end_translation` (truth - estimate) and rotation `end_rotation` (rotation vector, truth =
+/// Exp(end_rotation) * estimate). The rotation error, growing linearly (a gyro bias error),
+/// tilts the estimated gravity: the position error it causes is known from it,
+/// (end_rotation x g) s^3 / (6 T). The rest of the end error is the velocity error at the start
+/// (growing as s) and the accelerometer bias error (as s^2 / 2), shared as their conditional mean
+/// under the prior sigmas (linear when both are zero). Equals end_translation at s = T, zero at 0.
+Eigen::Vector3d drift_correction(double s, double T, const Eigen::Vector3d& end_translation,
+                                 const Eigen::Vector3d& end_rotation, const DriftPrior& prior);
+
+/// World points of the zero crossing of a TSDF snapshot: the voxels observed (weight > 0) with
+/// |tsdf| below half the truncation band, one point per voxel.
+std::vector<Eigen::Vector3d> volume_surface_points(const HostVolume& volume);
+
+}  // namespace imufusion
