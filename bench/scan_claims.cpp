@@ -46,7 +46,7 @@ struct Options {
   std::vector<std::string> scenes = {"room", "wall", "fast"};
   std::vector<std::uint64_t> seeds = {101, 102, 103};
   int width = 320, height = 240;
-  int frames = 300;
+  int frames = 420;  // 14 s: the wall episode ends at 9.5 s, so 4.5 s after it must track
   fs::path sequence;
   long sequence_frames = -1;
   fs::path work = fs::temp_directory_path() / "imufusion_scan_claims";
