@@ -1,9 +1,11 @@
 // Reconstructor: one Vulkan context shared by preprocessing, ICP, fusion and raycast; the host
 // runs Gauss-Newton, the IMU estimators and the tracking state machine.
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <utility>
 
@@ -186,14 +188,20 @@ struct Reconstructor::Impl {
     return n > 0 ? sum / static_cast<double>(n) : 0.0;
   }
 
+  // The reliability thresholds for this frame: the residual test widened to its depth noise.
+  IcpReliabilityThresholds reliability(const DepthImage& depth) const {
+    IcpReliabilityThresholds t = config.icp.reliability;
+    t.max_residual_per_weight = std::max(t.max_residual_per_weight, 2.0 * mean_noise_variance(depth));
+    return t;
+  }
+
   Result<IcpResult> align(const DepthImage& depth, const Eigen::Isometry3d& T_world_seed,
                           const MotionPrediction& prediction, FrameTimings& timings) {
     const auto t0 = Clock::now();
     IcpConfig icp = config.icp;
     icp.keep_seed_in_degenerate_directions =
         config.partial_icp_with_imu && prediction.rotation_from_imu && prediction.translation_predicted;
-    icp.reliability.max_residual_per_weight =
-        std::max(icp.reliability.max_residual_per_weight, 2.0 * mean_noise_variance(depth));
+    icp.reliability = reliability(depth);
     if (machine.recovering_or_lost()) {
       icp.max_total_iterations = std::max(icp.max_total_iterations, config.tracking.recovery_icp_iterations);
       icp.converged_rotation = std::max(icp.converged_rotation, config.recovery_converged_rotation);
@@ -205,13 +213,35 @@ struct Reconstructor::Impl {
     return result;
   }
 
-  // Whether this frame searches for its pose (see ReconstructorConfig::relocalize_with_imu).
-  bool may_relocalize(const IcpResult& icp, const MotionPrediction& prediction) {
+  // How far dead reckoning may have drifted since the last fully constrained frame (m), from
+  // the coarsest ICP level's reach up to relocalization_max_radius.
+  double drift_radius(double timestamp) const {
+    const double lost_seconds = timestamp - last_constrained_time;
+    const auto coarse = static_cast<std::size_t>(config.preprocess.levels - 1);
+    return std::min(config.relocalization_max_radius,
+                    std::max<double>(config.icp.max_distance[coarse],
+                                     0.5 * config.relocalization_drift_acceleration * lost_seconds * lost_seconds));
+  }
+
+  // A loss long enough that the dead-reckoned seed may lie beyond ICP's reach: an alignment
+  // from it can settle on the wrong stretch of a weakly constrained view, so recovery must be
+  // confirmed by the relocalization search.
+  bool long_loss(double timestamp, const MotionPrediction& prediction) const {
+    const auto coarse = static_cast<std::size_t>(config.preprocess.levels - 1);
+    return config.relocalize_with_imu && prediction.rotation_from_imu && machine.status() == TrackingStatus::kLost &&
+           drift_radius(timestamp) > config.icp.max_distance[coarse];
+  }
+
+  // Whether this frame searches for its pose (see ReconstructorConfig::relocalize_with_imu):
+  // every relocalization_interval lost frames, and whenever ICP from the seed would end a long
+  // loss.
+  bool may_relocalize(const IcpResult& icp, const MotionPrediction& prediction, bool long_loss) {
     if (machine.status() != TrackingStatus::kLost) {
       lost_frames_since_attempt = 0;
       return false;
     }
-    if (!config.relocalize_with_imu || !prediction.rotation_from_imu || icp.reliable) return false;
+    if (!config.relocalize_with_imu || !prediction.rotation_from_imu) return false;
+    if (icp.reliable) return long_loss;
     if (++lost_frames_since_attempt < config.relocalization_interval) return false;
     lost_frames_since_attempt = 0;
     return true;
@@ -232,17 +262,17 @@ struct Reconstructor::Impl {
   }
 
   // The translation search and ICP from its best candidates; the reliable, converged alignment
-  // with the lowest residual per weight, if any.
+  // with the lowest residual per weight, if it is the only place the frame fits: when another
+  // candidate's ICP also passes every test but the condition number somewhere else (more than
+  // two cells away), the view is ambiguous (a wall and the floor slide along their common line)
+  // and nothing is accepted.
   Result<std::optional<Relocalization>> relocalize(const DepthImage& depth, const Eigen::Isometry3d& T_world_estimate,
                                                    double timestamp, FrameTimings& timings) {
     const auto t0 = Clock::now();
     const double icp_ms = timings.icp_ms, raycast_ms = timings.raycast_ms;
     if (!field_current) IMUFUSION_RETURN_IF_ERROR(build_field());
     const int coarse = config.preprocess.levels - 1;
-    const double lost_seconds = timestamp - last_constrained_time;
-    const double radius = std::min(config.relocalization_max_radius,
-                                   std::max<double>(config.icp.max_distance[static_cast<std::size_t>(coarse)],
-                                                    0.5 * config.relocalization_drift_acceleration * lost_seconds * lost_seconds));
+    const double radius = drift_radius(timestamp);
     const Intrinsics& k = current.intrinsics(coarse);
     auto map = download_map(current.vertices(coarse), k.width, k.height);
     if (!map) return map.error();
@@ -259,6 +289,9 @@ struct Reconstructor::Impl {
     const auto candidates = field.search(points, T_world_estimate.linear(), T_world_estimate.translation(), radius,
                                          config.relocalization_candidates);
     std::optional<Relocalization> best;
+    IcpReliabilityThresholds plausible = reliability(depth);
+    plausible.max_condition = std::numeric_limits<double>::infinity();
+    std::vector<Eigen::Vector3d> fits;  // where the frame fits but for the condition number
     for (const TranslationCandidate& c : candidates) {
       if (c.near_fraction < config.icp.reliability.min_inlier_fraction) continue;
       Eigen::Isometry3d T_candidate = T_world_estimate;
@@ -267,10 +300,18 @@ struct Reconstructor::Impl {
       // No IMU prediction: the full six-direction solve, which a wall alone cannot pass.
       auto icp = align(depth, T_candidate, MotionPrediction{}, timings);
       if (!icp) return icp.error();
+      const Eigen::Isometry3d T_world_camera = T_world_reference * icp->T_ref_cur;
+      if (icp->quality.iterations > 0 && judge_icp(icp->quality, plausible, nullptr))
+        fits.push_back(T_world_camera.translation());
       if (!icp->reliable || !icp->quality.converged) continue;
       if (!best || icp->quality.residual_per_weight < best->icp.quality.residual_per_weight)
-        best = Relocalization{*icp, T_world_reference * icp->T_ref_cur};
+        best = Relocalization{*icp, T_world_camera};
     }
+    const double apart = 2 * config.relocalization_cell;
+    if (best && std::any_of(fits.begin(), fits.end(), [&](const Eigen::Vector3d& p) {
+          return (p - best->T_world_camera.translation()).norm() > apart;
+        }))
+      best.reset();
     timings.icp_ms = icp_ms;
     timings.raycast_ms = raycast_ms;
     timings.relocalize_ms = ms_since(t0);
@@ -379,7 +420,8 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
     Eigen::Isometry3d T_world_icp = m.T_world_reference * icp->T_ref_cur;
     // Where the frame would be without a recovery: the partial pose, else dead reckoning.
     const Eigen::Isometry3d T_world_estimate = icp->partial ? T_world_icp : T_world_seed;
-    if (m.may_relocalize(*icp, r.imu)) {
+    const bool long_loss = m.long_loss(timestamp, r.imu);
+    if (m.may_relocalize(*icp, r.imu, long_loss)) {
       auto found = m.relocalize(depth, T_world_estimate, timestamp, r.timings);
       if (!found) return found.error();
       if (*found) {
@@ -387,6 +429,10 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
         T_world_icp = (*found)->T_world_camera;
         r.relocalized = true;
       }
+    }
+    if (long_loss && icp->reliable && !r.relocalized) {
+      icp->reliable = false;
+      icp->reason = "after a long loss, not confirmed as the only fit by the relocalization search";
     }
     const bool was_lost = m.machine.status() == TrackingStatus::kLost;
     const bool partial_may_fuse = timestamp - m.last_constrained_time <= m.config.max_partial_seconds;
