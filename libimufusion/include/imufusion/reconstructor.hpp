@@ -69,7 +69,10 @@ struct ReconstructorConfig {
   /// within a radius of the dead-reckoned position, at the dead-reckoned rotation, and full ICP
   /// runs from the `relocalization_candidates` best fits. A candidate whose ICP is reliable in all
   /// six directions and converged takes the frame (status recovering: the usual hysteresis
-  /// follows). The radius grows as the drift of double-integrating a false acceleration of
+  /// follows), unless another candidate's ICP fits elsewhere but for the condition number (the
+  /// view is ambiguous: nothing is taken). Once the radius exceeds the coarsest ICP level's
+  /// max_distance, a reliable ICP from the dead-reckoned seed no longer ends the loss by itself:
+  /// the search must confirm it. The radius grows as the drift of double-integrating a false acceleration of
   /// `relocalization_drift_acceleration` (m/s^2) since the last fully constrained frame, from the
   /// coarsest ICP level's max_distance up to `relocalization_max_radius`: 0.17 m/s^2 is gravity
   /// leaking through a 1 degree tilt error, what the gyro noise of phone-grade IMUs (0.003
