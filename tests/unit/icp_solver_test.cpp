@@ -122,6 +122,11 @@ TEST(IcpStep, TruncatedSolveMovesOnlyAlongWellConditionedDirections) {
   const Eigen::Matrix<double, 6, 3> strong = Q.leftCols<3>();
   EXPECT_LT((truncated.x - strong * strong.transpose() * x_true).norm(), 1e-9);
   EXPECT_LT((Q.rightCols<3>().transpose() * truncated.x).norm(), 1e-9);
+  EXPECT_TRUE(full.fixed_translation.isIdentity());
+  // A projector: symmetric, idempotent.
+  const Eigen::Matrix3d P = truncated.fixed_translation;
+  EXPECT_LT((P - P.transpose()).norm(), 1e-12);
+  EXPECT_LT((P * P - P).norm(), 1e-9);
 }
 
 TEST(IcpIncrement, IsARotationEvenForLargeAngles) {
@@ -196,6 +201,10 @@ TEST(IcpCpu, AFlatWallSolvedDegeneracyAwareKeepsTheSeedAlongTheWall) {
   EXPECT_FALSE(result->reliable);
   EXPECT_TRUE(result->partial) << result->reason;
   EXPECT_EQ(result->quality.constrained_directions, 3);
+  // The one translation it fixed is the distance to the wall (the reference's z).
+  Eigen::Matrix3d normal_only = Eigen::Matrix3d::Zero();
+  normal_only(2, 2) = 1.0;
+  EXPECT_LT((result->fixed_translation - normal_only).norm(), 0.05) << result->fixed_translation;
   const Eigen::Isometry3d error = motion.inverse() * result->T_ref_cur;
   EXPECT_LT(rotation_deg(error), 0.1);
   EXPECT_LT(error.translation().norm(), 0.002);
@@ -221,6 +230,7 @@ TEST(IcpCpu, DegeneracyAwareSolvingLeavesAWellConstrainedAlignmentUnchanged) {
   EXPECT_TRUE(with->reliable) << with->reason;
   EXPECT_FALSE(with->partial);
   EXPECT_EQ(with->quality.constrained_directions, 6);
+  EXPECT_TRUE(with->fixed_translation.isIdentity());
   EXPECT_LT((with->T_ref_cur.matrix() - without->T_ref_cur.matrix()).norm(), 1e-9);
 }
 

@@ -1,7 +1,9 @@
 // Relocalization's translation search over the model's distance field, the drift correction of
 // a lost stretch, and the surface points of a TSDF snapshot.
 
+#include <algorithm>
 #include <cmath>
+#include <functional>
 #include <random>
 #include <vector>
 
@@ -108,41 +110,149 @@ TEST(SurfaceDistanceField, SearchFindsTheTranslationOfAStructuredView) {
   for (const auto& c : near) EXPECT_GT((c.translation - T.translation()).norm(), 0.3);
 }
 
-TEST(DriftCorrection, MatchesTheEndsAndFollowsEachErrorSource) {
-  const double T = 4.0;
-  const Eigen::Vector3d g(0.0, 0.0, -9.81);
-  DriftPrior prior;
-  prior.gravity_world = g;
-  prior.velocity_sigma = 0.02;
-  prior.accel_bias_sigma = 0.05;
-  const Eigen::Vector3d rotation(0.01, -0.03, 0.02), translation(0.3, -0.2, 0.1);
-  EXPECT_LT(drift_correction(0.0, T, translation, rotation, prior).norm(), 1e-12);
-  EXPECT_LT((drift_correction(T, T, translation, rotation, prior) - translation).norm(), 1e-12);
-  EXPECT_LT((drift_correction(9.0, T, translation, rotation, prior) - translation).norm(), 1e-12);
+namespace {
 
-  // A tilt error alone: the correction is the double integral of -(delta(s) x g), delta linear.
-  const Eigen::Vector3d tilt_end = -rotation.cross(g) * T * T / 6.0;
-  for (double u : {0.25, 0.5, 0.75}) {
-    const Eigen::Vector3d c = drift_correction(u * T, T, tilt_end, rotation, prior);
-    EXPECT_LT((c - tilt_end * u * u * u).norm(), 1e-12) << u;
+std::vector<StretchFrame> stretch_frames(double T, double dt) {
+  std::vector<StretchFrame> frames;
+  for (int k = 1; k * dt < T - 1e-9; ++k) frames.push_back({k * dt});
+  return frames;
+}
+
+// Dead-reckoning error of a path of rotation errors: the corrected acceleration is
+// -delta(s) x g + accel_bias, constant at its midpoint value over each frame interval.
+std::vector<StretchCorrection> simulate_drift(const std::vector<StretchFrame>& frames, double T,
+                                              const std::function<Eigen::Vector3d(double)>& delta,
+                                              const Eigen::Vector3d& g, const Eigen::Vector3d& v0,
+                                              const Eigen::Vector3d& accel_bias) {
+  std::vector<StretchCorrection> out;
+  Eigen::Vector3d p = Eigen::Vector3d::Zero(), v = v0;
+  double last = 0;
+  for (std::size_t k = 0; k <= frames.size(); ++k) {
+    const double s = k < frames.size() ? frames[k].s : T;
+    const double h = s - last;
+    const Eigen::Vector3d a = -(0.5 * (delta(last) + delta(s))).cross(g) + accel_bias;
+    p += v * h + 0.5 * h * h * a;
+    v += a * h;
+    if (k < frames.size()) p = (Eigen::Matrix3d::Identity() - frames[k].fixed) * p;
+    out.push_back({p, delta(s)});
+    last = s;
   }
-  // No rotation error: a velocity error alone is linear, a bias error alone quadratic.
-  DriftPrior velocity_only;
-  velocity_only.gravity_world = g;
-  velocity_only.velocity_sigma = 0.02;
-  DriftPrior bias_only;
-  bias_only.accel_bias_sigma = 0.05;
-  for (double u : {0.25, 0.5, 0.75}) {
-    EXPECT_LT((drift_correction(u * T, T, translation, Eigen::Vector3d::Zero(), velocity_only) - u * translation).norm(), 1e-12);
-    EXPECT_LT((drift_correction(u * T, T, translation, Eigen::Vector3d::Zero(), bias_only) - u * u * translation).norm(), 1e-12);
-    // With both, in between.
-    const double share = drift_correction(u * T, T, translation, Eigen::Vector3d::Zero(), prior).dot(translation) /
-                         translation.squaredNorm();
-    EXPECT_GT(share, u * u);
-    EXPECT_LT(share, u);
+  return out;  // the frames, then the end
+}
+
+double worst_translation_error(const std::vector<StretchCorrection>& a, const std::vector<StretchCorrection>& b) {
+  double worst = 0;
+  for (std::size_t k = 0; k < std::min(a.size(), b.size()); ++k)
+    worst = std::max(worst, (a[k].translation - b[k].translation).norm());
+  return worst;
+}
+
+}  // namespace
+
+TEST(DriftCorrections, StartFromZeroAndMatchTheEnd) {
+  const double T = 3.0;
+  DriftPrior prior;
+  prior.gravity_world = Eigen::Vector3d(0.0, 0.0, -9.81);
+  prior.velocity_sigma = 0.03;
+  prior.accel_bias_sigma = 0.04;
+  prior.gyro_bias_sigma = 0.003;
+  prior.gyro_noise_density = 0.003;
+  const Eigen::Vector3d rotation(0.02, 0.01, -0.01), translation(-0.4, 0.25, 0.05);
+  std::vector<StretchFrame> frames{{0.0}, {1.0}, {2.0}, {T}};
+  const auto c = drift_corrections(frames, T, translation, rotation, prior);
+  ASSERT_EQ(c.size(), frames.size());
+  EXPECT_LT(c[0].translation.norm() + c[0].rotation.norm(), 1e-12);
+  EXPECT_LT((c[3].translation - translation).norm(), 1e-9);
+  EXPECT_LT((c[3].rotation - rotation).norm(), 1e-9);
+  EXPECT_TRUE(drift_corrections({}, T, translation, rotation, prior).empty());
+}
+
+TEST(DriftCorrections, FollowEachErrorSource) {
+  const double T = 4.0;
+  const Eigen::Vector3d g(0.0, 0.0, -9.81), zero = Eigen::Vector3d::Zero();
+  const std::vector<StretchFrame> frames = stretch_frames(T, 1.0 / 30.0);
+  // A gyro bias error alone: the rotation error grows linearly and its tilt gives the cubic
+  // drift -(delta_T x g) s^3 / (6 T).
+  DriftPrior gyro_bias;
+  gyro_bias.gravity_world = g;
+  gyro_bias.gyro_bias_sigma = 0.003;
+  const Eigen::Vector3d delta_T(0.01, -0.02, 0.005);
+  const auto linear_delta = [&](double s) -> Eigen::Vector3d { return delta_T * s / T; };
+  const auto truth = simulate_drift(frames, T, linear_delta, g, zero, zero);
+  const auto c = drift_corrections(frames, T, truth.back().translation, delta_T, gyro_bias);
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    EXPECT_LT((c[k].rotation - linear_delta(frames[k].s)).norm(), 1e-9) << k;
+    const double s = frames[k].s;
+    EXPECT_LT((c[k].translation + delta_T.cross(g) * s * s * s / (6 * T)).norm(), 1e-3) << k;
   }
-  // Rotation about gravity tilts nothing.
-  EXPECT_LT((drift_correction(0.5 * T, T, translation, Eigen::Vector3d(0, 0, 0.05), velocity_only) - 0.5 * translation).norm(), 1e-12);
+  EXPECT_LT(worst_translation_error(c, truth), 1e-9);
+  // No rotation error: a velocity error alone is linear, a bias error alone quadratic, both in
+  // between.
+  const Eigen::Vector3d translation(0.3, -0.2, 0.1);
+  DriftPrior velocity_only, bias_only, both;
+  velocity_only.velocity_sigma = both.velocity_sigma = 0.02;
+  bias_only.accel_bias_sigma = both.accel_bias_sigma = 0.05;
+  const auto v = drift_corrections(frames, T, translation, zero, velocity_only);
+  const auto b = drift_corrections(frames, T, translation, zero, bias_only);
+  const auto vb = drift_corrections(frames, T, translation, zero, both);
+  for (std::size_t k = 0; k < frames.size(); k += 10) {
+    const double u = frames[k].s / T;
+    EXPECT_LT((v[k].translation - u * translation).norm(), 1e-9) << k;
+    EXPECT_LT((b[k].translation - u * u * translation).norm(), 1e-9) << k;
+    const double share = vb[k].translation.dot(translation) / translation.squaredNorm();
+    EXPECT_GT(share, u * u - 1e-12);
+    EXPECT_LT(share, u + 1e-12);
+  }
+  // Nothing known: both spread linearly.
+  const auto none = drift_corrections(frames, T, translation, delta_T, DriftPrior{});
+  EXPECT_LT((none[59].translation - translation * frames[59].s / T).norm(), 1e-9);
+  EXPECT_LT((none[59].rotation - delta_T * frames[59].s / T).norm(), 1e-9);
+}
+
+// The gyro's noise makes the rotation error a random walk: its end value alone says it grew
+// linearly, but the position error it caused through gravity says when. A rotation error that
+// came early drifted further, and the corrections follow it where a linear spread cannot.
+TEST(DriftCorrections, ThePositionErrorTellsWhenTheTiltCame) {
+  const double T = 5.0;
+  const Eigen::Vector3d g(0.0, 0.0, -9.81), zero = Eigen::Vector3d::Zero();
+  const std::vector<StretchFrame> frames = stretch_frames(T, 1.0 / 30.0);
+  const Eigen::Vector3d delta_T(0.015, 0.0, 0.0);
+  const auto early = [&](double s) -> Eigen::Vector3d { return delta_T * std::min(1.0, 3.0 * s / T); };
+  const auto truth = simulate_drift(frames, T, early, g, zero, zero);
+  DriftPrior random_walk;
+  random_walk.gravity_world = g;
+  random_walk.gyro_noise_density = 0.003;
+  random_walk.velocity_sigma = 0.01;
+  DriftPrior linear = random_walk;
+  linear.gyro_noise_density = 0;
+  linear.gyro_bias_sigma = 0.003;
+  const auto c = drift_corrections(frames, T, truth.back().translation, delta_T, random_walk);
+  const auto l = drift_corrections(frames, T, truth.back().translation, delta_T, linear);
+  const double with_noise = worst_translation_error(c, truth), with_linear = worst_translation_error(l, truth);
+  EXPECT_LT(with_noise, 0.5 * with_linear) << with_noise << " vs " << with_linear;
+  EXPECT_GT((c[frames.size() / 3].rotation - delta_T / 3.0).norm(), 0.3 * delta_T.norm());  // not linear
+}
+
+// A dead-reckoned stretch simulated with a velocity error: ICP fixes the distance to a wall
+// (x) in the first second, then nothing until the recovery at T. The corrections restore the
+// true path exactly, the fixed stretch included; ignoring the fixed direction does not.
+TEST(DriftCorrections, FixedDirectionsRestartTheDriftThere) {
+  const double T = 4.0;
+  const Eigen::Vector3d velocity_error(0.12, -0.05, 0.03), zero = Eigen::Vector3d::Zero();
+  DriftPrior prior;
+  prior.velocity_sigma = 0.05;  // no other source: the model is exact
+  std::vector<StretchFrame> frames = stretch_frames(T, 1.0 / 30.0);
+  for (StretchFrame& f : frames)
+    if (f.s <= 1.0) f.fixed(0, 0) = 1.0;
+  const auto truth = simulate_drift(frames, T, [](double) { return Eigen::Vector3d::Zero(); }, zero,
+                                    velocity_error, zero);
+  const auto c = drift_corrections(frames, T, truth.back().translation, zero, prior);
+  std::vector<StretchFrame> plain = frames;
+  for (StretchFrame& f : plain) f.fixed.setZero();
+  const auto ignoring = drift_corrections(plain, T, truth.back().translation, zero, prior);
+  EXPECT_LT(worst_translation_error(c, truth), 1e-9);
+  EXPECT_GT(worst_translation_error(ignoring, truth), 0.03);
+  EXPECT_NEAR(c[10].translation.x(), 0.0, 1e-12);  // inside the fixed second
 }
 
 TEST(VolumeSurfacePoints, TakesObservedVoxelsNearTheZeroCrossing) {

@@ -93,6 +93,9 @@ struct IcpResult {
   /// the depth constrained at least min_constrained_directions directions and the others kept
   /// the initial pose. Never set together with `reliable`.
   bool partial = false;
+  /// For a partial result, the translation directions ICP fixed (a projector in the reference
+  /// camera frame, see IcpStep::fixed_translation); identity for a full solve.
+  Eigen::Matrix3d fixed_translation = Eigen::Matrix3d::Identity();
   /// Why the result is unreliable ("condition 2.1e4 > 150", "no valid pixels"), empty if reliable.
   std::string reason;
 };
@@ -115,6 +118,10 @@ struct IcpStep {
   double condition = 0;
   bool solvable = false;
   int constrained_directions = 0;  // singular directions that x moves along
+  /// The translation directions x takes from the depth (a projector, reference camera frame):
+  /// the orthogonal complement of the translation parts of the directions left out. Identity
+  /// when all six are solved, zero when none is.
+  Eigen::Matrix3d fixed_translation = Eigen::Matrix3d::Zero();
 };
 /// With `max_condition` > 0, x is the truncated-SVD solution: it moves only along singular
 /// directions whose singular value is at least sigma_max / max_condition (zero along the others).

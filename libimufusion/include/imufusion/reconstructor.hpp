@@ -170,13 +170,15 @@ class Reconstructor {
   Status reset();
 
   /// One pose per frame since create() or reset(). When a loss ends in tracking again, the poses
-  /// of the frames in between (dead-reckoned or partial, never fused) are re-estimated: the
-  /// correction the recovery found (its ICP pose against the dead-reckoned one) is spread back
-  /// to the last fully constrained frame: the rotation in proportion to time (a gyro bias
-  /// error grows linearly), the translation as the drift that this tilt causes through gravity
-  /// (cubic in time) plus the rest of the end error shared between a velocity error (linear) and
-  /// an accelerometer bias error (quadratic) by the navigator's sigmas when the loss began
-  /// (drift_correction in src/core/relocalizer.hpp). FrameResult keeps the pose each frame had
+  /// of the frames in between (dead-reckoned or partial, never fused) are re-estimated from the
+  /// correction the recovery found (its ICP pose against the dead-reckoned one), back to the
+  /// last fully constrained frame: the conditional mean of dead reckoning's errors given that
+  /// end error, under the navigator's sigmas when the loss began. The rotation error is the gyro
+  /// bias error (linear in time) plus the gyro's noise (a random walk); it tilts the gravity
+  /// the accelerometer model removes (drift cubic in time), to which a velocity error (linear)
+  /// and an accelerometer bias error (quadratic) add. Along the directions partial ICP fixed in
+  /// a frame (the distance to a bare wall), the drift starts again from zero there
+  /// (drift_corrections in src/core/relocalizer.hpp). FrameResult keeps the pose each frame had
   /// when it was tracked.
   const Trajectory& trajectory() const;
   const ReconstructorConfig& config() const;

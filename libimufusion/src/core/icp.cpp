@@ -3,6 +3,7 @@
 #include <limits>
 #include <sstream>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 
 #include "imufusion/icp.hpp"
@@ -63,9 +64,19 @@ IcpStep solve_icp_step(const NormalEquations& eq, double max_condition) {
       step.x += U.col(i) * (U.col(i).dot(eq.Atb) / s(i));
       ++step.constrained_directions;
     }
+    // A translation direction is free when the left-out directions move along it: the
+    // eigenvectors of sum t t^T over their translation parts t (unit 6-vectors, so a pure
+    // translation gives 1, a pure rotation 0) with eigenvalue below one half are fixed.
+    Eigen::Matrix3d free = Eigen::Matrix3d::Zero();
+    for (int i = step.constrained_directions; i < 6; ++i) free += U.col(i).tail<3>() * U.col(i).tail<3>().transpose();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(free);
+    for (int i = 0; i < 3; ++i)
+      if (eig.eigenvalues()(i) < 0.5)
+        step.fixed_translation += eig.eigenvectors().col(i) * eig.eigenvectors().col(i).transpose();
   } else {
     step.x = svd.solve(eq.Atb);
     step.constrained_directions = 6;
+    step.fixed_translation.setIdentity();
   }
   if (!step.x.allFinite()) {
     step.x.setZero();
@@ -109,6 +120,7 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
   const int levels = source.levels();
   IMUFUSION_RETURN_IF_ERROR(config.validate(levels));
   IcpResult result;
+  Eigen::Matrix3d last_fixed = Eigen::Matrix3d::Zero();  // the last step's fixed translation directions
   if (!finite_pose(T_ref_cur_init)) {
     result.reason = "initial pose is not finite";
     return result;
@@ -139,6 +151,7 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
       q.residual_per_inlier = eq->inliers > 0 ? step.residual / double(eq->inliers) : 0;
       q.residual_per_weight = eq->weight_sum > 0 ? step.residual / eq->weight_sum : 0;
       q.constrained_directions = step.constrained_directions;
+      last_fixed = step.fixed_translation;
       ++total;
       finest_run = level;
       if (!step.solvable) {
@@ -177,6 +190,7 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
     t.max_condition = std::numeric_limits<double>::infinity();
     if (judge_icp(result.quality, t, nullptr)) {
       result.partial = true;
+      result.fixed_translation = last_fixed;
       result.reason += "; " + std::to_string(result.quality.constrained_directions) +
                        " of 6 directions from ICP, the rest from the initial pose";
     }

@@ -6,6 +6,7 @@
 #include <unordered_set>
 
 #include <Eigen/Geometry>
+#include <Eigen/QR>
 
 namespace imufusion {
 namespace {
@@ -147,21 +148,91 @@ std::vector<TranslationCandidate> SurfaceDistanceField::search(
   return out;
 }
 
-Eigen::Vector3d drift_correction(double s, double T, const Eigen::Vector3d& end_translation,
-                                 const Eigen::Vector3d& end_rotation, const DriftPrior& prior) {
-  if (!(T > 0)) return end_translation;
-  s = std::clamp(s, 0.0, T);
-  // Estimated acceleration minus true: delta(s) x g with delta(s) = end_rotation s / T, so the
-  // position error (estimate - truth) is (end_rotation x g) s^3 / (6 T).
-  const Eigen::Vector3d tilt_rate = end_rotation.cross(prior.gravity_world) / (6.0 * T);
-  const auto tilt_correction = [&](double x) -> Eigen::Vector3d { return -tilt_rate * x * x * x; };
-  const Eigen::Vector3d rest = end_translation - tilt_correction(T);
-  // Velocity error v s and bias error a s^2 / 2: Cov(e(x), e(T)) = sv^2 x T + sa^2 x^2 T^2 / 4.
-  const double v2 = prior.velocity_sigma * prior.velocity_sigma;
-  const double a2 = prior.accel_bias_sigma * prior.accel_bias_sigma;
-  const auto cov = [&](double x) { return v2 * x * T + a2 * x * x * T * T / 4.0; };
-  const double weight = cov(T) > 0 ? cov(s) / cov(T) : s / T;
-  return tilt_correction(s) + weight * rest;
+std::vector<StretchCorrection> drift_corrections(const std::vector<StretchFrame>& frames, double T,
+                                                 const Eigen::Vector3d& end_translation,
+                                                 const Eigen::Vector3d& end_rotation, const DriftPrior& prior) {
+  std::vector<StretchCorrection> out(frames.size(), StretchCorrection{end_translation, end_rotation});
+  if (!(T > 0)) return out;
+  // The Gaussian unknowns z: gyro bias error (3), start velocity error (3), accelerometer bias
+  // error (3), then the gyro noise's rotation increment over each interval between frames (3 each).
+  const std::size_t intervals = frames.size() + 1;
+  const Eigen::Index n = static_cast<Eigen::Index>(9 + 3 * intervals);
+  const auto interval_end = [&](std::size_t k) {
+    return k < frames.size() ? std::clamp(frames[k].s, 0.0, T) : T;
+  };
+  double gyro_bias2 = prior.gyro_bias_sigma * prior.gyro_bias_sigma;
+  const double noise2 = prior.gyro_noise_density * prior.gyro_noise_density;
+  if (!(gyro_bias2 + noise2 > 0)) gyro_bias2 = 1;  // linear
+  double velocity2 = prior.velocity_sigma * prior.velocity_sigma;
+  const double accel2 = prior.accel_bias_sigma * prior.accel_bias_sigma;
+  if (!(velocity2 + accel2 > 0)) velocity2 = 1;  // linear
+  Eigen::VectorXd variance(n);
+  variance.segment<3>(0).setConstant(gyro_bias2);
+  variance.segment<3>(3).setConstant(velocity2);
+  variance.segment<3>(6).setConstant(accel2);
+  double previous = 0;
+  for (std::size_t k = 0; k < intervals; ++k) {
+    const double end = std::max(previous, interval_end(k));
+    variance.segment<3>(static_cast<Eigen::Index>(9 + 3 * k)).setConstant(noise2 * (end - previous));
+    previous = end;
+  }
+
+  // One interval of the error dynamics, on any linear function of z (3 x n maps) or on values
+  // (3 x 1): the rotation error moves by the bias error and the noise increment, the
+  // acceleration is constant at its midpoint value.
+  Eigen::Matrix3d g_cross;
+  const Eigen::Vector3d& g = prior.gravity_world;
+  g_cross << 0, -g.z(), g.y(), g.z(), 0, -g.x(), -g.y(), g.x(), 0;
+  const auto run = [&](auto& rotation, auto& position, auto& velocity, const auto& bias, const auto& accel_bias,
+                       const auto& noise_of, auto&& at_frame) {
+    double last = 0;
+    for (std::size_t k = 0; k < intervals; ++k) {
+      const double end = std::max(last, interval_end(k));
+      const double h = end - last;
+      const auto step = (bias * h + noise_of(k)).eval();
+      // -delta x g = g x delta
+      const auto acceleration = (g_cross * (rotation + 0.5 * step) + accel_bias).eval();
+      position += velocity * h + 0.5 * h * h * acceleration;
+      velocity += acceleration * h;
+      rotation += step;
+      if (k < frames.size()) {
+        position = (Eigen::Matrix3d::Identity() - frames[k].fixed) * position;
+        at_frame(k);
+      }
+      last = end;
+    }
+  };
+
+  // The end error as a function of z: H (6 x n).
+  Eigen::MatrixXd rotation = Eigen::MatrixXd::Zero(3, n), position = Eigen::MatrixXd::Zero(3, n),
+                  velocity = Eigen::MatrixXd::Zero(3, n);
+  velocity.middleCols<3>(3).setIdentity();
+  Eigen::MatrixXd bias_map = Eigen::MatrixXd::Zero(3, n), accel_map = Eigen::MatrixXd::Zero(3, n);
+  bias_map.middleCols<3>(0).setIdentity();
+  accel_map.middleCols<3>(6).setIdentity();
+  run(rotation, position, velocity, bias_map, accel_map,
+      [&](std::size_t k) {
+        Eigen::MatrixXd m = Eigen::MatrixXd::Zero(3, n);
+        m.middleCols<3>(static_cast<Eigen::Index>(9 + 3 * k)).setIdentity();
+        return m;
+      },
+      [](std::size_t) {});
+  Eigen::MatrixXd H(6, n);
+  H << rotation, position;
+  Eigen::Matrix<double, 6, 1> y;
+  y << end_rotation, end_translation;
+  const Eigen::MatrixXd cross = variance.asDiagonal() * H.transpose();  // Sigma H^T
+  const Eigen::Matrix<double, 6, 6> S = H * cross;
+  const Eigen::VectorXd z = cross * S.completeOrthogonalDecomposition().solve(y);
+
+  // The frames' errors at the conditional mean of z.
+  Eigen::Vector3d r = Eigen::Vector3d::Zero(), p = Eigen::Vector3d::Zero();
+  Eigen::Vector3d v = z.segment<3>(3);
+  const Eigen::Vector3d bias = z.segment<3>(0), accel_bias = z.segment<3>(6);
+  run(r, p, v, bias, accel_bias,
+      [&](std::size_t k) -> Eigen::Vector3d { return z.segment<3>(static_cast<Eigen::Index>(9 + 3 * k)); },
+      [&](std::size_t k) { out[k] = StretchCorrection{p, r}; });
+  return out;
 }
 
 std::vector<Eigen::Vector3d> volume_surface_points(const HostVolume& volume) {

@@ -55,23 +55,47 @@ class SurfaceDistanceField {
   std::vector<float> distance_;
 };
 
-/// What is known about a dead-reckoned stretch's error sources when it began.
+/// What is known about a dead-reckoned stretch's error sources when it began (1 sigma, per
+/// axis). Zero sigmas are sources left out.
 struct DriftPrior {
   Eigen::Vector3d gravity_world = Eigen::Vector3d::Zero();  // m/s^2; zero: no tilt term
-  double velocity_sigma = 0;     // m/s, 1 sigma per axis, of the velocity at the start
-  double accel_bias_sigma = 0;   // m/s^2, 1 sigma per axis, of the accelerometer bias
+  double velocity_sigma = 0;      // m/s: the velocity at the start
+  double accel_bias_sigma = 0;    // m/s^2: the accelerometer bias
+  double gyro_bias_sigma = 0;     // rad/s: the gyro bias estimate
+  double gyro_noise_density = 0;  // rad/s/sqrt(Hz): the gyro's white noise (angle random walk)
 };
 
-/// The correction (truth - estimate, world, metres) of a dead-reckoned position at time s of a
-/// stretch [0, T] whose error was zero at 0 and was measured at T by the recovery: translation
-/// `end_translation` (truth - estimate) and rotation `end_rotation` (rotation vector, truth =
-/// Exp(end_rotation) * estimate). The rotation error, growing linearly (a gyro bias error),
-/// tilts the estimated gravity: the position error it causes is known from it,
-/// (end_rotation x g) s^3 / (6 T). The rest of the end error is the velocity error at the start
-/// (growing as s) and the accelerometer bias error (as s^2 / 2), shared as their conditional mean
-/// under the prior sigmas (linear when both are zero). Equals end_translation at s = T, zero at 0.
-Eigen::Vector3d drift_correction(double s, double T, const Eigen::Vector3d& end_translation,
-                                 const Eigen::Vector3d& end_rotation, const DriftPrior& prior);
+/// A frame inside a dead-reckoned stretch: its time since the stretch began (s) and the world
+/// translation directions ICP fixed in it (a projector; zero for a frame dead-reckoned in all).
+struct StretchFrame {
+  double s = 0;
+  Eigen::Matrix3d fixed = Eigen::Matrix3d::Zero();
+};
+
+/// Truth - estimate of a dead-reckoned pose (world): truth = Exp(rotation) * estimate, position
+/// + translation.
+struct StretchCorrection {
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  Eigen::Vector3d rotation = Eigen::Vector3d::Zero();
+};
+
+/// The corrections of the frames of a dead-reckoned stretch [0, T] (`frames`, in time order,
+/// strictly inside), whose error was zero at 0 and was measured at T by the recovery
+/// (`end_translation`, `end_rotation`, as in StretchCorrection): the conditional mean under a
+/// linear model of dead reckoning's errors, given the end error.
+///   - Rotation error delta(s): the gyro bias error (growing linearly) plus its white noise (a
+///     random walk).
+///   - Position: the rotation error tilts the gravity the accelerometer model removes, so the
+///     corrected acceleration is -delta(s) x g, plus the accelerometer bias error; the velocity
+///     error at the start adds a linear term.
+///   - Where ICP placed a frame partly (a bare wall fixes the distance to it), its position was
+///     right along the fixed directions: the error there starts again from zero while the
+///     velocity and bias errors run on.
+/// The estimate's linear spread when a source's sigmas are all zero: with no rotation source the
+/// rotation error grows linearly, with no translation source the velocity error takes the rest.
+std::vector<StretchCorrection> drift_corrections(const std::vector<StretchFrame>& frames, double T,
+                                                 const Eigen::Vector3d& end_translation,
+                                                 const Eigen::Vector3d& end_rotation, const DriftPrior& prior);
 
 /// World points of the zero crossing of a TSDF snapshot: the voxels observed (weight > 0) with
 /// |tsdf| below half the truncation band, one point per voxel.

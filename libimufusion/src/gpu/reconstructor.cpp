@@ -87,8 +87,12 @@ struct Reconstructor::Impl {
     std::size_t anchor = 0, index = 0;
     Eigen::Isometry3d estimate, corrected;
     DriftPrior prior;
+    std::vector<std::pair<std::size_t, Eigen::Matrix3d>> fixed;
   };
   std::optional<PendingCorrection> pending;
+  // The frames since the last fully constrained one that partial ICP placed, with the world
+  // translation directions it fixed.
+  std::vector<std::pair<std::size_t, Eigen::Matrix3d>> partial_fixed;
   DriftPrior constrained_prior;  // the inertial estimates at the last fully constrained frame
   Eigen::Isometry3d T_world_reference = Eigen::Isometry3d::Identity();  // pose of the raycast
   bool has_reference = false;
@@ -325,11 +329,22 @@ struct Reconstructor::Impl {
     if (!(span > 0)) return;
     const Eigen::AngleAxisd rotation(c.corrected.linear() * c.estimate.linear().transpose());
     const Eigen::Vector3d translation = c.corrected.translation() - c.estimate.translation();
+    std::vector<StretchFrame> frames;
+    auto fixed = c.fixed.begin();
     for (std::size_t i = c.anchor + 1; i < c.index; ++i) {
+      StretchFrame f{trajectory[i].timestamp - t0};
+      while (fixed != c.fixed.end() && fixed->first < i) ++fixed;
+      if (fixed != c.fixed.end() && fixed->first == i) f.fixed = fixed->second;
+      frames.push_back(f);
+    }
+    const std::vector<StretchCorrection> corrections =
+        drift_corrections(frames, span, translation, rotation.angle() * rotation.axis(), c.prior);
+    for (std::size_t i = c.anchor + 1; i < c.index; ++i) {
+      const StretchCorrection& correction = corrections[i - c.anchor - 1];
       Eigen::Isometry3d& T = trajectory[i].T_world_camera;
-      const double s = trajectory[i].timestamp - t0;
-      T.linear() = Eigen::AngleAxisd(s / span * rotation.angle(), rotation.axis()).toRotationMatrix() * T.linear();
-      T.translation() += drift_correction(s, span, translation, rotation.angle() * rotation.axis(), c.prior);
+      const double angle = correction.rotation.norm();
+      if (angle > 0) T.linear() = Eigen::AngleAxisd(angle, correction.rotation / angle).toRotationMatrix() * T.linear();
+      T.translation() += correction.translation;
     }
   }
 
@@ -342,6 +357,8 @@ struct Reconstructor::Impl {
     if (s.gravity_ready) prior.gravity_world = s.gravity_world;
     prior.velocity_sigma = s.velocity_sigma;
     prior.accel_bias_sigma = s.accel_bias_sigma.norm() / std::sqrt(3.0);
+    prior.gyro_bias_sigma = s.gyro_bias_sigma.norm() / std::sqrt(3.0);
+    prior.gyro_noise_density = config.inertial.gyro_noise_density;
     return prior;
   }
 };
@@ -417,6 +434,7 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
     const Eigen::Isometry3d T_world_seed = previous.T_world_camera * r.imu.T_a_b;
     auto icp = m.align(depth, T_world_seed, r.imu, r.timings);
     if (!icp) return icp.error();
+    const Eigen::Matrix3d R_world_reference = m.T_world_reference.linear();
     Eigen::Isometry3d T_world_icp = m.T_world_reference * icp->T_ref_cur;
     // Where the frame would be without a recovery: the partial pose, else dead reckoning.
     const Eigen::Isometry3d T_world_estimate = icp->partial ? T_world_icp : T_world_seed;
@@ -452,13 +470,18 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
                            decision.source == PoseSource::kIcp && !r.relocalized);
     if (was_lost && decision.status == TrackingStatus::kRecovering)
       m.pending = Impl::PendingCorrection{m.last_constrained_index, r.index, T_world_estimate, r.T_world_camera,
-                                          m.constrained_prior};
+                                          m.constrained_prior, m.partial_fixed};
     if (decision.status == TrackingStatus::kLost) m.pending.reset();
+    // Only while dead reckoning is still within ICP's reach: from a seed further off, partial
+    // ICP may settle on the wrong stretch of the model in the directions it fixes too.
+    if (decision.source == PoseSource::kIcpPartial && !long_loss)
+      m.partial_fixed.emplace_back(r.index, R_world_reference * icp->fixed_translation * R_world_reference.transpose());
   }
   if (decision.source == PoseSource::kIcp || decision.source == PoseSource::kInitial) {
     m.last_constrained_time = timestamp;
     m.last_constrained_index = r.index;
     m.constrained_prior = m.drift_prior();
+    m.partial_fixed.clear();
   }
   r.status = decision.status;
   r.source = decision.source;
@@ -501,6 +524,7 @@ Result<FrameResult> Reconstructor::fuse_with_pose(double timestamp, const DepthI
   m.last_constrained_index = r.index;
   m.constrained_prior = m.drift_prior();
   m.pending.reset();
+  m.partial_fixed.clear();
   if (!m.trajectory.empty() && m.navigator) {
     const StampedPose& previous = m.trajectory.back();
     r.imu = m.navigator->predict(previous.timestamp, timestamp);
@@ -565,6 +589,7 @@ Status Reconstructor::reset() {
   m.has_reference = false;
   m.field_current = false;
   m.pending.reset();
+  m.partial_fixed.clear();
   m.last_constrained_time = 0;
   m.last_constrained_index = 0;
   m.lost_frames_since_attempt = 0;
