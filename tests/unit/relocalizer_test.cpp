@@ -110,6 +110,23 @@ TEST(SurfaceDistanceField, SearchFindsTheTranslationOfAStructuredView) {
   for (const auto& c : near) EXPECT_GT((c.translation - T.translation()).norm(), 0.3);
 }
 
+TEST(SurfaceDistanceField, MergedSearchesKeepTheBestDistinctCandidates) {
+  const auto at = [](double x, double cost) {
+    TranslationCandidate c;
+    c.translation = Eigen::Vector3d(x, 0, 0);
+    c.cost = cost;
+    return c;
+  };
+  const std::vector<TranslationCandidate> a{at(0.0, 0.3), at(1.0, 0.5)}, b{at(0.02, 0.2), at(2.0, 0.4), at(3.0, 0.9)};
+  const auto merged = merge_candidates(a, b, 3, 0.1);
+  ASSERT_EQ(merged.size(), 3u);
+  EXPECT_DOUBLE_EQ(merged[0].translation.x(), 0.02);  // the better of the pair 2 cm apart
+  EXPECT_DOUBLE_EQ(merged[1].translation.x(), 2.0);
+  EXPECT_DOUBLE_EQ(merged[2].translation.x(), 1.0);
+  EXPECT_TRUE(merge_candidates({}, {}, 3, 0.1).empty());
+  EXPECT_EQ(merge_candidates(a, b, 10, 0.1).size(), 4u);
+}
+
 namespace {
 
 std::vector<StretchFrame> stretch_frames(double T, double dt) {

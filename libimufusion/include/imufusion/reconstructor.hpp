@@ -77,6 +77,9 @@ struct ReconstructorConfig {
   /// coarsest ICP level's max_distance up to `relocalization_max_radius`: 0.17 m/s^2 is gravity
   /// leaking through a 1 degree tilt error, what the gyro noise of phone-grade IMUs (0.003
   /// rad/s/sqrt(Hz), as in the shared sequences) and its bias error accumulate in about 4 s.
+  /// Once it reaches the cap, dead reckoning may lie beyond any affordable search (metres after
+  /// 8 s), so the search also covers `relocalization_max_radius` around where the scan was lost
+  /// (the last fully constrained frame), and the best distinct fits of both are tried.
   bool relocalize_with_imu = true;
   int relocalization_interval = 5;
   double relocalization_cell = 0.05;

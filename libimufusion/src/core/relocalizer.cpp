@@ -148,6 +148,24 @@ std::vector<TranslationCandidate> SurfaceDistanceField::search(
   return out;
 }
 
+std::vector<TranslationCandidate> merge_candidates(const std::vector<TranslationCandidate>& a,
+                                                   const std::vector<TranslationCandidate>& b, int count,
+                                                   double separation) {
+  std::vector<TranslationCandidate> all = a;
+  all.insert(all.end(), b.begin(), b.end());
+  std::stable_sort(all.begin(), all.end(),
+                   [](const TranslationCandidate& x, const TranslationCandidate& y) { return x.cost < y.cost; });
+  std::vector<TranslationCandidate> out;
+  for (const TranslationCandidate& c : all) {
+    if (static_cast<int>(out.size()) >= count) break;
+    if (std::none_of(out.begin(), out.end(), [&](const TranslationCandidate& kept) {
+          return (kept.translation - c.translation).norm() < separation;
+        }))
+      out.push_back(c);
+  }
+  return out;
+}
+
 std::vector<StretchCorrection> drift_corrections(const std::vector<StretchFrame>& frames, double T,
                                                  const Eigen::Vector3d& end_translation,
                                                  const Eigen::Vector3d& end_rotation, const DriftPrior& prior) {

@@ -55,6 +55,12 @@ class SurfaceDistanceField {
   std::vector<float> distance_;
 };
 
+/// The `count` lowest-cost candidates of two searches (regions that may overlap), one of a pair
+/// closer than `separation` counting once (the lower cost kept).
+std::vector<TranslationCandidate> merge_candidates(const std::vector<TranslationCandidate>& a,
+                                                   const std::vector<TranslationCandidate>& b, int count,
+                                                   double separation);
+
 /// What is known about a dead-reckoned stretch's error sources when it began (1 sigma, per
 /// axis). Zero sigmas are sources left out.
 struct DriftPrior {
