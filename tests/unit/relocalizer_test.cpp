@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <numbers>
 #include <random>
 #include <vector>
 
@@ -129,6 +130,13 @@ TEST(SurfaceDistanceField, MergedSearchesKeepTheBestDistinctCandidates) {
 
 namespace {
 
+// An accelerometer bias of `sigma` per axis, independent of gravity.
+Eigen::Matrix<double, 6, 6> accel_bias_covariance(double sigma) {
+  Eigen::Matrix<double, 6, 6> c = Eigen::Matrix<double, 6, 6>::Zero();
+  c.bottomRightCorner<3, 3>().diagonal().setConstant(sigma * sigma);
+  return c;
+}
+
 std::vector<StretchFrame> stretch_frames(double T, double dt) {
   std::vector<StretchFrame> frames;
   for (int k = 1; k * dt < T - 1e-9; ++k) frames.push_back({k * dt});
@@ -171,7 +179,7 @@ TEST(DriftCorrections, StartFromZeroAndMatchTheEnd) {
   DriftPrior prior;
   prior.gravity_world = Eigen::Vector3d(0.0, 0.0, -9.81);
   prior.velocity_sigma = 0.03;
-  prior.accel_bias_sigma = 0.04;
+  prior.gravity_bias_covariance = accel_bias_covariance(0.04);
   prior.gyro_bias_sigma = 0.003;
   prior.gyro_noise_density = 0.003;
   const Eigen::Vector3d rotation(0.02, 0.01, -0.01), translation(-0.4, 0.25, 0.05);
@@ -208,7 +216,7 @@ TEST(DriftCorrections, FollowEachErrorSource) {
   const Eigen::Vector3d translation(0.3, -0.2, 0.1);
   DriftPrior velocity_only, bias_only, both;
   velocity_only.velocity_sigma = both.velocity_sigma = 0.02;
-  bias_only.accel_bias_sigma = both.accel_bias_sigma = 0.05;
+  bias_only.gravity_bias_covariance = both.gravity_bias_covariance = accel_bias_covariance(0.05);
   const auto v = drift_corrections(frames, T, translation, zero, velocity_only);
   const auto b = drift_corrections(frames, T, translation, zero, bias_only);
   const auto vb = drift_corrections(frames, T, translation, zero, both);
@@ -270,6 +278,51 @@ TEST(DriftCorrections, FixedDirectionsRestartTheDriftThere) {
   EXPECT_LT(worst_translation_error(c, truth), 1e-9);
   EXPECT_GT(worst_translation_error(ignoring, truth), 0.03);
   EXPECT_NEAR(c[10].translation.x(), 0.0, 1e-12);  // inside the fixed second
+}
+
+// Biases are constant in the sensor frame: for a camera that turns a full circle during the
+// stretch, a gyro bias error first tilts the world one way and then undoes it, and an
+// accelerometer bias error pushes one way, then the other. Simulated with sensor-frame biases
+// alone, the corrections restore the path exactly; taking the biases as constant in the world
+// (the frames' orientations left out) does not.
+TEST(DriftCorrections, SensorFrameBiasesTurnWithTheCamera) {
+  const double T = 4.0;
+  const Eigen::Vector3d g(0.0, 0.0, -9.81);
+  const Eigen::Vector3d gyro_bias(0.003, -0.002, 0.0003), accel_bias(0.1, -0.05, 0.02);
+  std::vector<StretchFrame> frames = stretch_frames(T, 1.0 / 30.0);
+  for (StretchFrame& f : frames)
+    f.R_world_camera = Eigen::AngleAxisd(2 * std::numbers::pi * f.s / T, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  std::vector<StretchCorrection> truth;
+  Eigen::Vector3d r = Eigen::Vector3d::Zero(), p = Eigen::Vector3d::Zero(), v = Eigen::Vector3d::Zero();
+  double last = 0;
+  for (std::size_t k = 0; k <= frames.size(); ++k) {
+    const StretchFrame& f = frames[std::min(k, frames.size() - 1)];
+    const double s = k < frames.size() ? f.s : T, h = s - last;
+    const Eigen::Vector3d step = f.R_world_camera * gyro_bias * h;
+    const Eigen::Vector3d a = -(r + 0.5 * step).cross(g) + f.R_world_camera * accel_bias;
+    p += v * h + 0.5 * h * h * a;
+    v += a * h;
+    r += step;
+    truth.push_back({p, r});
+    last = s;
+  }
+  DriftPrior prior;
+  prior.gravity_world = g;
+  prior.gyro_bias_sigma = 0.003;
+  prior.gravity_bias_covariance = accel_bias_covariance(0.05);
+  const auto c = drift_corrections(frames, T, truth.back().translation, truth.back().rotation, prior);
+  EXPECT_LT(worst_translation_error(c, truth), 1e-9);
+  double worst_rotation = 0, peak_rotation = 0;
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    worst_rotation = std::max(worst_rotation, (c[k].rotation - truth[k].rotation).norm());
+    peak_rotation = std::max(peak_rotation, truth[k].rotation.norm());
+  }
+  EXPECT_LT(worst_rotation, 1e-12);
+  EXPECT_GT(peak_rotation, 2 * truth.back().rotation.norm());  // the turn undid most of it
+  std::vector<StretchFrame> unturned = frames;
+  for (StretchFrame& f : unturned) f.R_world_camera.setIdentity();
+  const auto world = drift_corrections(unturned, T, truth.back().translation, truth.back().rotation, prior);
+  EXPECT_GT(worst_translation_error(world, truth), 0.05);
 }
 
 TEST(VolumeSurfacePoints, TakesObservedVoxelsNearTheZeroCrossing) {

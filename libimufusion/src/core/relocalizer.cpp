@@ -8,6 +8,8 @@
 #include <Eigen/Geometry>
 #include <Eigen/QR>
 
+#include "core/inertial_internal.hpp"
+
 namespace imufusion {
 namespace {
 
@@ -171,45 +173,51 @@ std::vector<StretchCorrection> drift_corrections(const std::vector<StretchFrame>
                                                  const Eigen::Vector3d& end_rotation, const DriftPrior& prior) {
   std::vector<StretchCorrection> out(frames.size(), StretchCorrection{end_translation, end_rotation});
   if (!(T > 0)) return out;
-  // The Gaussian unknowns z: gyro bias error (3), start velocity error (3), accelerometer bias
-  // error (3), then the gyro noise's rotation increment over each interval between frames (3 each).
+  // The Gaussian unknowns z: gyro bias error (3, camera frame), start velocity error (3),
+  // gravity error (3), accelerometer bias error (3, camera frame), then the gyro noise's rotation
+  // increment over each interval between frames (3 each). Their prior covariance Sigma is
+  // diagonal but for the (gravity, bias) block.
+  constexpr Eigen::Index kGyroBias = 0, kVelocity = 3, kGravity = 6, kAccelBias = 9, kNoise = 12;
   const std::size_t intervals = frames.size() + 1;
-  const Eigen::Index n = static_cast<Eigen::Index>(9 + 3 * intervals);
+  const Eigen::Index n = kNoise + static_cast<Eigen::Index>(3 * intervals);
+  const auto noise_index = [](std::size_t k) { return kNoise + static_cast<Eigen::Index>(3 * k); };
   const auto interval_end = [&](std::size_t k) {
     return k < frames.size() ? std::clamp(frames[k].s, 0.0, T) : T;
+  };
+  const auto orientation = [&](std::size_t k) -> Eigen::Matrix3d {
+    if (frames.empty()) return Eigen::Matrix3d::Identity();
+    return frames[std::min(k, frames.size() - 1)].R_world_camera;
   };
   double gyro_bias2 = prior.gyro_bias_sigma * prior.gyro_bias_sigma;
   const double noise2 = prior.gyro_noise_density * prior.gyro_noise_density;
   if (!(gyro_bias2 + noise2 > 0)) gyro_bias2 = 1;  // linear
   double velocity2 = prior.velocity_sigma * prior.velocity_sigma;
-  const double accel2 = prior.accel_bias_sigma * prior.accel_bias_sigma;
-  if (!(velocity2 + accel2 > 0)) velocity2 = 1;  // linear
-  Eigen::VectorXd variance(n);
-  variance.segment<3>(0).setConstant(gyro_bias2);
-  variance.segment<3>(3).setConstant(velocity2);
-  variance.segment<3>(6).setConstant(accel2);
+  const bool accelerometer = prior.gravity_bias_covariance.allFinite() && prior.gravity_bias_covariance.trace() > 0;
+  if (!(velocity2 > 0) && !accelerometer) velocity2 = 1;  // linear
+  Eigen::VectorXd variance = Eigen::VectorXd::Zero(n);  // Sigma's diagonal, the block apart
+  variance.segment<3>(kGyroBias).setConstant(gyro_bias2);
+  variance.segment<3>(kVelocity).setConstant(velocity2);
   double previous = 0;
   for (std::size_t k = 0; k < intervals; ++k) {
     const double end = std::max(previous, interval_end(k));
-    variance.segment<3>(static_cast<Eigen::Index>(9 + 3 * k)).setConstant(noise2 * (end - previous));
+    variance.segment<3>(noise_index(k)).setConstant(noise2 * (end - previous));
     previous = end;
   }
 
   // One interval of the error dynamics, on any linear function of z (3 x n maps) or on values
   // (3 x 1): the rotation error moves by the bias error and the noise increment, the
   // acceleration is constant at its midpoint value.
-  Eigen::Matrix3d g_cross;
-  const Eigen::Vector3d& g = prior.gravity_world;
-  g_cross << 0, -g.z(), g.y(), g.z(), 0, -g.x(), -g.y(), g.x(), 0;
+  const Eigen::Matrix3d g_cross = inertial::skew(prior.gravity_world);
   const auto run = [&](auto& rotation, auto& position, auto& velocity, const auto& bias, const auto& accel_bias,
-                       const auto& noise_of, auto&& at_frame) {
+                       const auto& gravity, const auto& noise_of, auto&& at_frame) {
     double last = 0;
     for (std::size_t k = 0; k < intervals; ++k) {
       const double end = std::max(last, interval_end(k));
       const double h = end - last;
-      const auto step = (bias * h + noise_of(k)).eval();
+      const Eigen::Matrix3d R = orientation(k);
+      const auto step = (R * bias * h + noise_of(k)).eval();
       // -delta x g = g x delta
-      const auto acceleration = (g_cross * (rotation + 0.5 * step) + accel_bias).eval();
+      const auto acceleration = (g_cross * (rotation + 0.5 * step) + R * accel_bias + gravity).eval();
       position += velocity * h + 0.5 * h * h * acceleration;
       velocity += acceleration * h;
       rotation += step;
@@ -220,35 +228,33 @@ std::vector<StretchCorrection> drift_corrections(const std::vector<StretchFrame>
       last = end;
     }
   };
+  const auto unknown = [&](Eigen::Index first) {
+    Eigen::MatrixXd m = Eigen::MatrixXd::Zero(3, n);
+    m.middleCols<3>(first).setIdentity();
+    return m;
+  };
 
   // The end error as a function of z: H (6 x n).
   Eigen::MatrixXd rotation = Eigen::MatrixXd::Zero(3, n), position = Eigen::MatrixXd::Zero(3, n),
-                  velocity = Eigen::MatrixXd::Zero(3, n);
-  velocity.middleCols<3>(3).setIdentity();
-  Eigen::MatrixXd bias_map = Eigen::MatrixXd::Zero(3, n), accel_map = Eigen::MatrixXd::Zero(3, n);
-  bias_map.middleCols<3>(0).setIdentity();
-  accel_map.middleCols<3>(6).setIdentity();
-  run(rotation, position, velocity, bias_map, accel_map,
-      [&](std::size_t k) {
-        Eigen::MatrixXd m = Eigen::MatrixXd::Zero(3, n);
-        m.middleCols<3>(static_cast<Eigen::Index>(9 + 3 * k)).setIdentity();
-        return m;
-      },
-      [](std::size_t) {});
+                  velocity = unknown(kVelocity);
+  run(rotation, position, velocity, unknown(kGyroBias), unknown(kAccelBias), unknown(kGravity),
+      [&](std::size_t k) { return unknown(noise_index(k)); }, [](std::size_t) {});
   Eigen::MatrixXd H(6, n);
   H << rotation, position;
   Eigen::Matrix<double, 6, 1> y;
   y << end_rotation, end_translation;
-  const Eigen::MatrixXd cross = variance.asDiagonal() * H.transpose();  // Sigma H^T
+  Eigen::MatrixXd cross = variance.asDiagonal() * H.transpose();  // Sigma H^T
+  if (accelerometer)
+    cross.middleRows<6>(kGravity) = prior.gravity_bias_covariance * H.transpose().middleRows<6>(kGravity);
   const Eigen::Matrix<double, 6, 6> S = H * cross;
   const Eigen::VectorXd z = cross * S.completeOrthogonalDecomposition().solve(y);
 
   // The frames' errors at the conditional mean of z.
   Eigen::Vector3d r = Eigen::Vector3d::Zero(), p = Eigen::Vector3d::Zero();
-  Eigen::Vector3d v = z.segment<3>(3);
-  const Eigen::Vector3d bias = z.segment<3>(0), accel_bias = z.segment<3>(6);
-  run(r, p, v, bias, accel_bias,
-      [&](std::size_t k) -> Eigen::Vector3d { return z.segment<3>(static_cast<Eigen::Index>(9 + 3 * k)); },
+  Eigen::Vector3d v = z.segment<3>(kVelocity);
+  run(r, p, v, Eigen::Vector3d(z.segment<3>(kGyroBias)), Eigen::Vector3d(z.segment<3>(kAccelBias)),
+      Eigen::Vector3d(z.segment<3>(kGravity)),
+      [&](std::size_t k) -> Eigen::Vector3d { return z.segment<3>(noise_index(k)); },
       [&](std::size_t k) { out[k] = StretchCorrection{p, r}; });
   return out;
 }

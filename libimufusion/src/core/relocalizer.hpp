@@ -66,16 +66,21 @@ std::vector<TranslationCandidate> merge_candidates(const std::vector<Translation
 struct DriftPrior {
   Eigen::Vector3d gravity_world = Eigen::Vector3d::Zero();  // m/s^2; zero: no tilt term
   double velocity_sigma = 0;      // m/s: the velocity at the start
-  double accel_bias_sigma = 0;    // m/s^2: the accelerometer bias
-  double gyro_bias_sigma = 0;     // rad/s: the gyro bias estimate
+  // The joint covariance of the gravity estimate (world) and the accelerometer bias (camera
+  // frame), m^2/s^4. Estimated together, their sum is known far better than either while the
+  // camera turned little; a turn during the stretch shows their difference.
+  Eigen::Matrix<double, 6, 6> gravity_bias_covariance = Eigen::Matrix<double, 6, 6>::Zero();
+  double gyro_bias_sigma = 0;     // rad/s: the gyro bias estimate (camera frame)
   double gyro_noise_density = 0;  // rad/s/sqrt(Hz): the gyro's white noise (angle random walk)
 };
 
-/// A frame inside a dead-reckoned stretch: its time since the stretch began (s) and the world
-/// translation directions ICP fixed in it (a projector; zero for a frame dead-reckoned in all).
+/// A frame inside a dead-reckoned stretch: its time since the stretch began (s), its estimated
+/// orientation (the biases, constant in the camera frame, act along it) and the world translation directions ICP
+/// fixed in it (a projector; zero for a frame dead-reckoned in all).
 struct StretchFrame {
   double s = 0;
   Eigen::Matrix3d fixed = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d R_world_camera = Eigen::Matrix3d::Identity();
 };
 
 /// Truth - estimate of a dead-reckoned pose (world): truth = Exp(rotation) * estimate, position
@@ -89,16 +94,20 @@ struct StretchCorrection {
 /// strictly inside), whose error was zero at 0 and was measured at T by the recovery
 /// (`end_translation`, `end_rotation`, as in StretchCorrection): the conditional mean under a
 /// linear model of dead reckoning's errors, given the end error.
-///   - Rotation error delta(s): the gyro bias error (growing linearly) plus its white noise (a
-///     random walk).
+///   - Rotation error delta(s): the gyro bias error, constant in the camera frame and so turning
+///     with the camera in the world (a camera that turns half round undoes its drift), plus the
+///     gyro's white noise (a random walk).
 ///   - Position: the rotation error tilts the gravity the accelerometer model removes, so the
-///     corrected acceleration is -delta(s) x g, plus the accelerometer bias error; the velocity
-///     error at the start adds a linear term.
+///     corrected acceleration is -delta(s) x g, plus the accelerometer bias error (camera frame,
+///     turning with the camera) and the gravity estimate's error (world); the velocity error at
+///     the start adds a linear term.
 ///   - Where ICP placed a frame partly (a bare wall fixes the distance to it), its position was
 ///     right along the fixed directions: the error there starts again from zero while the
 ///     velocity and bias errors run on.
-/// The estimate's linear spread when a source's sigmas are all zero: with no rotation source the
-/// rotation error grows linearly, with no translation source the velocity error takes the rest.
+/// The interval before a frame takes that frame's orientation, the last interval the last
+/// frame's. The estimate's linear spread when a source's sigmas are all zero: with no rotation
+/// source the rotation error grows linearly, with no translation source the velocity error takes
+/// the rest.
 std::vector<StretchCorrection> drift_corrections(const std::vector<StretchFrame>& frames, double T,
                                                  const Eigen::Vector3d& end_translation,
                                                  const Eigen::Vector3d& end_rotation, const DriftPrior& prior);
