@@ -256,6 +256,15 @@ TEST(ReconstructorConfig, RejectsSettingsOutOfRange) {
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.error().message.find("recovery_frames"), std::string::npos);
   c.tracking.recovery_frames = 3;
+  c.drift_gravity_sigma_scale = 0;
+  s = c.validate();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("drift sigma"), std::string::npos);
+  c.drift_gravity_sigma_scale = 2.3;
+  c.drift_gyro_bias_sigma_scale = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(c.validate().ok());
+  c.drift_gyro_bias_sigma_scale = 0.3;
+  EXPECT_TRUE(c.validate().ok());
   c.initial_pose.translation().x() = std::numeric_limits<double>::infinity();
   EXPECT_FALSE(c.validate().ok());
 }

@@ -38,6 +38,9 @@ Status ReconstructorConfig::validate() const {
     return bad("relocalization_drift_acceleration must be finite and >= 0");
   if (!(relocalization_max_radius >= 0 && relocalization_max_radius <= 10))
     return bad("relocalization_max_radius must be 0..10 m, got " + std::to_string(relocalization_max_radius));
+  for (const double scale : {drift_gyro_bias_sigma_scale, drift_gravity_sigma_scale})
+    if (!(scale > 0) || !std::isfinite(scale))
+      return bad("drift sigma scales must be finite and positive, got " + std::to_string(scale));
   const Eigen::Matrix4d m = initial_pose.matrix();
   if (!m.allFinite() ||
       (initial_pose.linear().transpose() * initial_pose.linear() - Eigen::Matrix3d::Identity()).norm() > 1e-6)
