@@ -75,8 +75,8 @@ struct DriftPrior {
 };
 
 /// A frame inside a dead-reckoned stretch: its time since the stretch began (s), its estimated
-/// orientation (the biases, constant in the camera frame, act along it) and the world translation directions ICP
-/// fixed in it (a projector; zero for a frame dead-reckoned in all).
+/// orientation (the biases, constant in the camera frame, act along it) and the world
+/// translation directions ICP fixed in it (a projector; zero for a frame dead-reckoned in all).
 struct StretchFrame {
   double s = 0;
   Eigen::Matrix3d fixed = Eigen::Matrix3d::Zero();
@@ -95,7 +95,7 @@ struct StretchCorrection {
 /// (`end_translation`, `end_rotation`, as in StretchCorrection): the conditional mean under a
 /// linear model of dead reckoning's errors, given the end error.
 ///   - Rotation error delta(s): the gyro bias error, constant in the camera frame and so turning
-///     with the camera in the world (a camera that turns half round undoes its drift), plus the
+///     with the camera in the world (a camera that turns round undoes part of its drift), plus the
 ///     gyro's white noise (a random walk).
 ///   - Position: the rotation error tilts the gravity the accelerometer model removes, so the
 ///     corrected acceleration is -delta(s) x g, plus the accelerometer bias error (camera frame,

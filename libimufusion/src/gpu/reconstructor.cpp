@@ -368,16 +368,16 @@ struct Reconstructor::Impl {
     const InertialStatus s = navigator->status();
     if (s.gravity_ready) prior.gravity_world = s.gravity_world;
     prior.velocity_sigma = s.velocity_sigma;
-    // Gravity and the accelerometer bias as independent: their estimator's joint covariance
-    // (the two are strongly correlated while the camera turned little) did worse on twelve wall
-    // scans (bench/README.md).
+    // The reported sigmas (per-axis RMS) scaled by their measured calibration. Gravity and the
+    // accelerometer bias as independent: their estimator's joint covariance (the two are
+    // strongly correlated while the camera turned little) did worse on twelve wall scans
+    // (bench/README.md).
     if (s.gravity_ready) {
-      prior.gravity_bias_covariance.topLeftCorner<3, 3>().diagonal().setConstant(s.gravity_sigma.squaredNorm() / 3);
-      prior.gravity_bias_covariance.bottomRightCorner<3, 3>().diagonal().setConstant(s.accel_bias_sigma.squaredNorm() / 3);
+      const double scale2 = config.drift_gravity_sigma_scale * config.drift_gravity_sigma_scale;
+      prior.gravity_bias_covariance.topLeftCorner<3, 3>().diagonal().setConstant(scale2 * s.gravity_sigma.squaredNorm() / 3);
+      prior.gravity_bias_covariance.bottomRightCorner<3, 3>().diagonal().setConstant(scale2 * s.accel_bias_sigma.squaredNorm() / 3);
     }
-    prior.gyro_bias_sigma = s.gyro_bias_sigma.norm() / std::sqrt(3.0);
-    prior.gyro_bias_sigma *= config.drift_gyro_bias_sigma_scale;
-    prior.gravity_bias_covariance *= config.drift_gravity_sigma_scale * config.drift_gravity_sigma_scale;
+    prior.gyro_bias_sigma = config.drift_gyro_bias_sigma_scale * s.gyro_bias_sigma.norm() / std::sqrt(3.0);
     prior.gyro_noise_density = config.inertial.gyro_noise_density;
     return prior;
   }
