@@ -2,15 +2,16 @@
 #extension GL_GOOGLE_include_directive : require
 #include "imufusion_layouts.h"
 
-// 128 invocations per workgroup (fixed: the shared array below is sized for it, 15.5 KiB, within
-// the 16 KiB every Vulkan device offers). No subgroup operations, no float atomics: the sum order
+// 128 invocations per workgroup (fixed: the shared array below is sized for it, 16 KiB, the
+// shared memory every Vulkan device offers). No subgroup operations, no float atomics: the sum order
 // is fixed, so results are deterministic for a given input.
 #define GROUP 128
 layout(local_size_x = GROUP, local_size_y = 1, local_size_z = 1) in;
 layout(constant_id = 0) const uint unused_x = 1;  // the runtime's workgroup specialization slots
 layout(constant_id = 1) const uint unused_y = 1;
 layout(std430, set = 0, binding = 0) readonly buffer Rows { vec4 rows[]; };
-layout(std430, set = 0, binding = 1) writeonly buffer Partials { float partials[]; };
+layout(std430, set = 0, binding = 1) readonly buffer CurVertices { vec4 cur_vertices[]; };
+layout(std430, set = 0, binding = 2) writeonly buffer Partials { float partials[]; };
 layout(push_constant) uniform Push { IcpReduceParams p; };
 
 shared float sums[ICP_REDUCE_VALUES][GROUP];
@@ -26,8 +27,16 @@ void main() {
     vec4 r0 = rows[2u * r];
     vec4 r1 = rows[2u * r + 1u];
     float w = r1.w;
-    if (w != 0.0) acc[30] += 1.0;
-    if (w <= 0.0) continue;
+    if (w == 0.0) continue;
+    float information = 1.0;
+    if (p.noise_a > 0.0) {
+      float dz = cur_vertices[r].z - p.noise_z0;
+      float ratio = p.noise_a / (p.noise_a + p.noise_b * dz * dz);
+      information = ratio * ratio;
+    }
+    acc[30] += information;
+    if (w < 0.0) continue;
+    acc[31] += information;
     float a[6] = float[6](r0.x, r0.y, r0.z, r0.w, r1.x, r1.y);
     float b = r1.z;
     int k = 0;

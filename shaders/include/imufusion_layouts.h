@@ -84,15 +84,20 @@ struct IcpAssociateParams {
 // icp_reduce: the first stage of a deterministic two-stage reduction over the association rows.
 // Workgroup g sums rows [g * rows_per_group, (g + 1) * rows_per_group) into ICP_PARTIAL_STRIDE
 // floats: the 21 upper-triangle entries of sum w a a^T (row-major), the 6 of sum w a b, sum w b^2,
-// the inlier count, the weight sum and the count of current pixels with a vertex and a normal
-// (rows with w != 0: association writes w = -1 for such a pixel whose pair it rejected).
+// the inlier count, the weight sum, and the sums of the depth noise information
+// (noise_a / sigma(z))^2, sigma(z) = noise_a + noise_b (z - noise_z0)^2 (1 when noise_a = 0), of
+// the current vertex over the current pixels with a vertex and a normal (rows with w != 0:
+// association writes w = -1 for such a pixel whose pair it rejected) and over the paired ones.
 // The host adds the partials in double.
-#define ICP_REDUCE_VALUES 31
+#define ICP_REDUCE_VALUES 32
 #define ICP_PARTIAL_STRIDE 32
 #define ICP_ROW_FLOATS 8
 struct IcpReduceParams {
   uint row_count;
   uint rows_per_group;
+  float noise_a;  // metres
+  float noise_b;  // 1 / metre
+  float noise_z0; // metres
 };
 
 // The sparse TSDF volume (see libimufusion/include/imufusion/volume.hpp for the geometry).

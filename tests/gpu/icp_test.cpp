@@ -73,7 +73,8 @@ TEST_F(GpuTest, AssociationAndReductionMatchTheReference) {
   auto cur_maps = cur->download();
   ASSERT_TRUE(ref_maps.ok() && cur_maps.ok());
 
-  auto kernels = gpu::IcpKernels::create(context_, 97 * 61, 16, 16);
+  const DepthNoiseModel noise;
+  auto kernels = gpu::IcpKernels::create(context_, 97 * 61, 16, 16, noise);
   ASSERT_TRUE(kernels.ok()) << kernels.error().describe();
   auto icp_seq = gpu::CommandSequence::create(context_, gpu::IcpKernels::kDispatches);
   ASSERT_TRUE(icp_seq.ok());
@@ -105,6 +106,7 @@ TEST_F(GpuTest, AssociationAndReductionMatchTheReference) {
       g.b = r[6];
       g.w = r[7];
       g.valid = r[7] != 0.0f;
+      g.z = cur_maps->vertices[l].data[i].z();
       EXPECT_EQ(g.valid, expected[i].valid) << "pixel " << i;
       const bool gpu_accepts = g.w > 0, ref_accepts = expected[i].w > 0;
       accepted += ref_accepts ? 1 : 0;
@@ -122,10 +124,15 @@ TEST_F(GpuTest, AssociationAndReductionMatchTheReference) {
     EXPECT_LE(accept_mismatch, 0.002 * double(expected.size()) + 1) << "level " << level;
     EXPECT_EQ(value_mismatch, 0) << "level " << level;
 
-    const NormalEquations want = reference::icp_reduce(gpu_rows);
+    const NormalEquations want = reference::icp_reduce(gpu_rows, noise);
     EXPECT_EQ(gpu_eq->inliers, want.inliers);
-    EXPECT_EQ(gpu_eq->valid_pixels, want.valid_pixels);
     auto near = [](double a, double b) { return std::abs(a - b) <= 1e-4 * (std::abs(b) + 1e-6); };
+    EXPECT_GT(want.valid_information, want.inlier_information);
+    EXPECT_GT(want.inlier_information, 0.0);
+    EXPECT_TRUE(near(gpu_eq->valid_information, want.valid_information))
+        << gpu_eq->valid_information << " vs " << want.valid_information;
+    EXPECT_TRUE(near(gpu_eq->inlier_information, want.inlier_information))
+        << gpu_eq->inlier_information << " vs " << want.inlier_information;
     for (int i = 0; i < 6; ++i) {
       EXPECT_TRUE(near(gpu_eq->Atb(i), want.Atb(i))) << gpu_eq->Atb(i) << " vs " << want.Atb(i);
       for (int j = 0; j < 6; ++j)

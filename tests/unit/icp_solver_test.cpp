@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include <Eigen/QR>
 #include <gtest/gtest.h>
@@ -279,6 +280,40 @@ TEST(IcpCpu, ASingleIterationBudgetIsSpentAtFullResolution) {
   // One Gauss-Newton step from a small offset lands close.
   const Eigen::Isometry3d error = pair.T_ref_cur.inverse() * result->T_ref_cur;
   EXPECT_LT(error.translation().norm(), 0.002);
+}
+
+}  // namespace
+}  // namespace imufusion
+
+namespace imufusion {
+namespace {
+
+TEST(DepthNoiseModel, InformationIsTheInverseVarianceRelativeToTheLeastNoise) {
+  const DepthNoiseModel noise;
+  EXPECT_DOUBLE_EQ(noise.information(noise.z0), 1.0);
+  EXPECT_NEAR(noise.information(2.4), std::pow(0.0012 / (0.0012 + 0.0019 * 4.0), 2), 1e-12);
+  EXPECT_LT(noise.information(4.0), noise.information(2.0));
+  EXPECT_DOUBLE_EQ((DepthNoiseModel{0.0, 0.0019, 0.4}).information(3.0), 1.0);  // a = 0: counts
+}
+
+TEST(IcpReduce, PixelsCountInTheInlierFractionByTheirInformation) {
+  // Half the valid pixels near and paired, half far and rejected (their normals failed the gate).
+  std::vector<reference::IcpRow> rows(4);
+  for (int i = 0; i < 4; ++i) {
+    rows[static_cast<std::size_t>(i)].valid = true;
+    rows[static_cast<std::size_t>(i)].z = i < 2 ? 1.0 : 4.0;
+  }
+  rows[0].w = rows[1].w = 0.9;
+  rows[0].a << 0, 0, 0, 0, 0, 1;
+  rows[1].a << 0, 0, 0, 0, 0, 1;
+  const DepthNoiseModel noise;
+  const NormalEquations eq = reference::icp_reduce(rows, noise);
+  EXPECT_EQ(eq.inliers, 2u);
+  EXPECT_NEAR(eq.valid_information, 2 * noise.information(1.0) + 2 * noise.information(4.0), 1e-12);
+  EXPECT_NEAR(eq.inlier_information, 2 * noise.information(1.0), 1e-12);
+  EXPECT_GT(eq.inlier_information / eq.valid_information, 0.99);
+  const NormalEquations counted = reference::icp_reduce(rows, DepthNoiseModel{0, 0, 0});
+  EXPECT_DOUBLE_EQ(counted.inlier_information / counted.valid_information, 0.5);
 }
 
 }  // namespace

@@ -21,16 +21,32 @@
 
 namespace imufusion {
 
+/// Axial depth noise of the sensor, sigma(z) = a + b (z - z0)^2 metres (Kinect-like default:
+/// Nguyen, Izadi and Lovell 2012, also imufusion's synthetic sensor).
+struct DepthNoiseModel {
+  double a = 0.0012, b = 0.0019, z0 = 0.4;
+  double sigma(double z) const { return a + b * (z - z0) * (z - z0); }
+  /// A current pixel's share in the inlier fraction: its inverse noise variance relative to the
+  /// least noise, (a / sigma(z))^2 in (0, 1]; 1 everywhere when a = 0.
+  double information(double z) const {
+    const double s = sigma(z);
+    return a > 0 ? (a / s) * (a / s) : 1.0;
+  }
+};
+
 /// The weighted normal equations of one association pass (sums over accepted pairs):
 /// AtA = sum w a a^T, Atb = sum w a b, btb = sum w b^2 (m^2), inliers = number of pairs,
-/// weight_sum = sum w; valid_pixels = current pixels with a vertex and a normal.
+/// weight_sum = sum w. valid_information and inlier_information sum DepthNoiseModel::information
+/// of the current frame's depth over the current pixels with a vertex and a normal, and over
+/// those paired.
 struct NormalEquations {
   Eigen::Matrix<double, 6, 6> AtA = Eigen::Matrix<double, 6, 6>::Zero();
   Eigen::Matrix<double, 6, 1> Atb = Eigen::Matrix<double, 6, 1>::Zero();
   double btb = 0;
   std::uint64_t inliers = 0;
   double weight_sum = 0;
-  std::uint64_t valid_pixels = 0;
+  double valid_information = 0;
+  double inlier_information = 0;
 };
 
 /// Thresholds of the reliable / unreliable decision. The defaults were chosen by
@@ -40,7 +56,10 @@ struct NormalEquations {
 struct IcpReliabilityThresholds {
   double max_condition = 562.3;              // kappa = sigma_max / sigma_min of AtA
   double max_residual_per_weight = 4.22e-5;  // r / sum(w), m^2
-  double min_inlier_fraction = 0.40;         // inliers / valid pixels of the current frame
+  /// The paired share of the current frame's valid pixels, each counted by its inverse depth
+  /// noise variance (DepthNoiseModel::information): far pixels, whose normals scatter past the
+  /// normal-angle gate wherever the frame is aligned, count little.
+  double min_inlier_fraction = 0.40;
   std::uint64_t min_inliers = 100;           // a floor for tiny images
 };
 
@@ -55,6 +74,9 @@ struct IcpConfig {
   double converged_rotation = 1e-5;
   double converged_translation = 1e-5;
   IcpReliabilityThresholds reliability;
+  /// The depth sensor's noise: the inlier fraction's weights, and (Reconstructor) the residual
+  /// test's allowance on far scenes.
+  DepthNoiseModel depth_noise;
   /// Degeneracy-aware solving: directions of the 6-D update whose singular value is below
   /// sigma_max / reliability.max_condition (the geometry barely constrains them: a flat wall
   /// leaves its two in-plane translations and the rotation about its normal) are not updated
@@ -75,7 +97,7 @@ struct IcpQuality {
   double residual_per_inlier = 0; // r / n
   double residual_per_weight = 0; // r / sum(w)
   std::uint64_t inliers = 0;      // n
-  double inlier_fraction = 0;     // n / valid pixels of the current frame
+  double inlier_fraction = 0;     // inlier_information / valid_information (NormalEquations)
   double weight_sum = 0;          // sum(w)
   double condition = 0;           // kappa = sigma_max / sigma_min of AtA (inf when singular)
   int iterations = 0;             // Gauss-Newton steps run, all levels

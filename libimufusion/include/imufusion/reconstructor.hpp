@@ -45,7 +45,11 @@ namespace imufusion {
 struct ReconstructorConfig {
   Intrinsics intrinsics;  // of the depth camera; frames must have its size
   PreprocessConfig preprocess;
-  IcpConfig icp;          // max_total_iterations: the per-frame cap while tracking
+  /// max_total_iterations: the per-frame cap while tracking. With icp.depth_noise, ICP's residual
+  /// test accepts r / sum(w) up to sigma_cur^2 + sigma_model^2 <= 2 mean sigma(z)^2 over the
+  /// frame, when that is above icp.reliability.max_residual_per_weight: a far scene is noisier,
+  /// not misaligned.
+  IcpConfig icp;
   VolumeConfig volume;
   TrackingConfig tracking;
   /// false: the baseline without inertial data, dIMU = identity (samples passed are ignored).
@@ -94,12 +98,6 @@ struct ReconstructorConfig {
   double drift_gyro_bias_sigma_scale = 0.3;
   double drift_gravity_sigma_scale = 2.3;
   DeviceOptions device;
-  /// Axial depth noise of the sensor, sigma(z) = a + b (z - z0)^2 metres (Kinect-like default:
-  /// Nguyen, Izadi and Lovell 2012, also imufusion's synthetic sensor). ICP's residual test
-  /// accepts r / sum(w) up to sigma_cur^2 + sigma_model^2 <= 2 mean sigma(z)^2 over the frame,
-  /// when that is above icp.reliability.max_residual_per_weight: a far scene is noisier, not
-  /// misaligned.
-  double depth_noise_a = 0.0012, depth_noise_b = 0.0019, depth_noise_z0 = 0.4;
   /// Convergence (per-step rotation, rad, and translation, m) that counts while lost or
   /// recovering: an update below it means ICP has settled onto the model (1 mm / 0.06 deg per
   /// step is below what ICP resolves on noisy depth; tighter, noise keeps it from settling).

@@ -39,6 +39,9 @@ Status IcpConfig::validate(int levels) const {
       return bad("ICP max_normal_angle_deg must be in (0, 90)");
   }
   if (iterations_per_level[0] < 1) return bad("ICP must run at least one iteration at level 0");
+  if (!(depth_noise.a >= 0 && depth_noise.b >= 0 &&
+        std::isfinite(depth_noise.a + depth_noise.b + depth_noise.z0)))
+    return bad("depth noise coefficients must be finite and non-negative");
   if (min_constrained_directions < 1 || min_constrained_directions > 6)
     return bad("min_constrained_directions must be 1..6, got " + std::to_string(min_constrained_directions));
   return {};
@@ -145,7 +148,7 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
       IcpQuality& q = result.quality;
       q.inliers = eq->inliers;
       q.weight_sum = eq->weight_sum;
-      q.inlier_fraction = eq->valid_pixels > 0 ? double(eq->inliers) / double(eq->valid_pixels) : 0;
+      q.inlier_fraction = eq->valid_information > 0 ? eq->inlier_information / eq->valid_information : 0;
       q.condition = step.condition;
       q.residual = step.residual;
       q.residual_per_inlier = eq->inliers > 0 ? step.residual / double(eq->inliers) : 0;

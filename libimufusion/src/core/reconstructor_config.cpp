@@ -22,8 +22,6 @@ Status ReconstructorConfig::validate() const {
     return bad("tracking.recovery_icp_iterations must be 1..100, got " +
                std::to_string(tracking.recovery_icp_iterations));
   if (use_imu) IMUFUSION_RETURN_IF_ERROR(inertial.validate());
-  if (!(depth_noise_a >= 0 && depth_noise_b >= 0 && std::isfinite(depth_noise_a + depth_noise_b + depth_noise_z0)))
-    return bad("depth noise coefficients must be finite and non-negative");
   if (!(recovery_converged_rotation > 0 && recovery_converged_translation > 0))
     return bad("recovery convergence thresholds must be positive");
   if (!(max_partial_seconds >= 0) || !std::isfinite(max_partial_seconds))

@@ -14,15 +14,17 @@ constexpr std::uint32_t kRowsPerGroup = 2048;
 }  // namespace
 
 Result<IcpKernels> IcpKernels::create(std::shared_ptr<Context> context, std::size_t max_pixels,
-                                      int workgroup_x, int workgroup_y) {
+                                      int workgroup_x, int workgroup_y,
+                                      const DepthNoiseModel& noise) {
   IcpKernels k;
+  k.noise_ = noise;
   auto associate = ComputePipeline::create(
       context, {"icp_associate", 5, sizeof(layout::IcpAssociateParams),
                 static_cast<std::uint32_t>(workgroup_x), static_cast<std::uint32_t>(workgroup_y)});
   if (!associate) return associate.error();
   k.associate_ = std::move(*associate);
   // One workgroup (of the shader's fixed 128 invocations) per grid cell.
-  auto reduce = ComputePipeline::create(context, {"icp_reduce", 2, sizeof(layout::IcpReduceParams), 1, 1});
+  auto reduce = ComputePipeline::create(context, {"icp_reduce", 3, sizeof(layout::IcpReduceParams), 1, 1});
   if (!reduce) return reduce.error();
   k.reduce_ = std::move(*reduce);
   auto rows = Buffer::create(context, max_pixels * ICP_ROW_FLOATS * sizeof(float));
@@ -55,8 +57,9 @@ void IcpKernels::record(CommandSequence& seq, const IcpMaps& current, const IcpM
                params, params.width, params.height, "icp_associate" + suffix);
   const std::uint32_t row_count = params.width * params.height;
   groups_ = (row_count + kRowsPerGroup - 1) / kRowsPerGroup;
-  const layout::IcpReduceParams reduce{row_count, kRowsPerGroup};
-  seq.dispatch(reduce_, {&rows_, &partials_}, reduce, groups_, 1, "icp_reduce" + suffix);
+  const layout::IcpReduceParams reduce{row_count, kRowsPerGroup, static_cast<float>(noise_.a),
+                                       static_cast<float>(noise_.b), static_cast<float>(noise_.z0)};
+  seq.dispatch(reduce_, {&rows_, current.vertices, &partials_}, reduce, groups_, 1, "icp_reduce" + suffix);
 }
 
 Result<NormalEquations> IcpKernels::read_equations() const {
@@ -79,7 +82,8 @@ Result<NormalEquations> IcpKernels::read_equations() const {
   eq.btb = sums[27];
   eq.inliers = static_cast<std::uint64_t>(sums[28] + 0.5);
   eq.weight_sum = sums[29];
-  eq.valid_pixels = static_cast<std::uint64_t>(sums[30] + 0.5);
+  eq.valid_information = sums[30];
+  eq.inlier_information = sums[31];
   return eq;
 }
 

@@ -186,7 +186,7 @@ struct Reconstructor::Impl {
     for (std::uint16_t raw : depth.data) {
       const double z = raw * scale;
       if (raw == 0 || z < config.preprocess.min_depth || z > config.preprocess.max_depth) continue;
-      const double sigma = config.depth_noise_a + config.depth_noise_b * (z - config.depth_noise_z0) * (z - config.depth_noise_z0);
+      const double sigma = config.icp.depth_noise.sigma(z);
       sum += sigma * sigma;
       ++n;
     }
@@ -411,7 +411,7 @@ Result<Reconstructor> Reconstructor::create(const ReconstructorConfig& config) {
   if (!icp_seq) return icp_seq.error();
   m.icp_seq = std::move(*icp_seq);
   auto kernels = gpu::IcpKernels::create(m.context, pixels, config.preprocess.workgroup_x,
-                                         config.preprocess.workgroup_y);
+                                         config.preprocess.workgroup_y, config.icp.depth_noise);
   if (!kernels) return kernels.error();
   m.icp_kernels = std::move(*kernels);
   auto volume = gpu::TsdfVolume::create(m.context, config.volume, config.preprocess.workgroup_x,

@@ -15,6 +15,7 @@ std::vector<IcpRow> icp_associate(const Vec4Image& cur_vertices, const Vec4Image
     const Eigen::Vector4f& n = cur_normals.data[i];
     if (v.w() <= 0 || n.w() <= 0) continue;
     rows[i].valid = true;
+    rows[i].z = v.z();
     const Eigen::Vector3d p = T_ref_cur * v.head<3>().cast<double>();
     const Eigen::Vector3d m = T_ref_cur.linear() * n.head<3>().cast<double>();
     if (p.z() <= 0) continue;
@@ -37,11 +38,14 @@ std::vector<IcpRow> icp_associate(const Vec4Image& cur_vertices, const Vec4Image
   return rows;
 }
 
-NormalEquations icp_reduce(const std::vector<IcpRow>& rows) {
+NormalEquations icp_reduce(const std::vector<IcpRow>& rows, const DepthNoiseModel& noise) {
   NormalEquations eq;
   for (const IcpRow& row : rows) {
-    eq.valid_pixels += row.valid ? 1 : 0;
+    if (!row.valid) continue;
+    const double information = noise.information(row.z);
+    eq.valid_information += information;
     if (row.w <= 0) continue;
+    eq.inlier_information += information;
     eq.AtA += row.w * row.a * row.a.transpose();
     eq.Atb += row.w * row.a * row.b;
     eq.btb += row.w * row.b * row.b;
@@ -53,8 +57,10 @@ NormalEquations icp_reduce(const std::vector<IcpRow>& rows) {
 
 CpuNormalEquationSource::CpuNormalEquationSource(PreprocessedFrame reference,
                                                  PreprocessedFrame current,
-                                                 const Intrinsics& intrinsics)
-    : reference_(std::move(reference)), current_(std::move(current)), intrinsics_(intrinsics) {}
+                                                 const Intrinsics& intrinsics,
+                                                 const DepthNoiseModel& noise)
+    : reference_(std::move(reference)), current_(std::move(current)), intrinsics_(intrinsics),
+      noise_(noise) {}
 
 Result<NormalEquations> CpuNormalEquationSource::evaluate(int level,
                                                           const Eigen::Isometry3d& T_ref_cur,
@@ -64,7 +70,7 @@ Result<NormalEquations> CpuNormalEquationSource::evaluate(int level,
   const auto rows = icp_associate(current_.vertices[l], current_.normals[l], reference_.vertices[l],
                                   reference_.normals[l], intrinsics_.at_level(level), T_ref_cur,
                                   max_distance, min_normal_cos);
-  return icp_reduce(rows);
+  return icp_reduce(rows, noise_);
 }
 
 }  // namespace imufusion::reference

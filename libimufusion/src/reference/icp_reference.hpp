@@ -12,12 +12,13 @@
 namespace imufusion::reference {
 
 /// One association result: the row a (6), b and weight w (0 = rejected); `valid` when the
-/// current pixel has a vertex and a normal.
+/// current pixel has a vertex and a normal, and then z, the current vertex's depth.
 struct IcpRow {
   Eigen::Matrix<double, 6, 1> a = Eigen::Matrix<double, 6, 1>::Zero();
   double b = 0;
   double w = 0;
   bool valid = false;
+  double z = 0;
 };
 
 std::vector<IcpRow> icp_associate(const Vec4Image& cur_vertices, const Vec4Image& cur_normals,
@@ -26,13 +27,13 @@ std::vector<IcpRow> icp_associate(const Vec4Image& cur_vertices, const Vec4Image
                                   const Eigen::Isometry3d& T_ref_cur, double max_distance,
                                   double min_normal_cos);
 
-/// Sums of the accepted rows, and the count of valid pixels.
-NormalEquations icp_reduce(const std::vector<IcpRow>& rows);
+/// Sums of the accepted rows, and the noise information of the valid and of the paired pixels.
+NormalEquations icp_reduce(const std::vector<IcpRow>& rows, const DepthNoiseModel& noise);
 
 class CpuNormalEquationSource : public NormalEquationSource {
  public:
   CpuNormalEquationSource(PreprocessedFrame reference, PreprocessedFrame current,
-                          const Intrinsics& intrinsics);
+                          const Intrinsics& intrinsics, const DepthNoiseModel& noise = {});
   int levels() const override { return static_cast<int>(current_.vertices.size()); }
   Result<NormalEquations> evaluate(int level, const Eigen::Isometry3d& T_ref_cur,
                                    float max_distance, float min_normal_cos) override;
@@ -40,6 +41,7 @@ class CpuNormalEquationSource : public NormalEquationSource {
  private:
   PreprocessedFrame reference_, current_;
   Intrinsics intrinsics_;
+  DepthNoiseModel noise_;
 };
 
 }  // namespace imufusion::reference
