@@ -18,8 +18,8 @@
 // Synthetic scans with an IMU also check the inertial estimates' reported sigmas, which the
 // re-estimation of a lost stretch takes as its prior: at the last frame ICP fixed in full before
 // the first loss, the gyro bias, gravity and accelerometer bias estimates against the truth, per
-// axis in units of the sigma reported with them. Printed after the table: the RMS of those
-// ratios (1 for honest sigmas).
+// axis in units of the sigma reported with them, each scan once (with its first IMU setting).
+// Printed after the table: the RMS of those ratios (1 for honest sigmas).
 
 #include <algorithm>
 #include <cmath>
@@ -28,6 +28,7 @@
 #include <filesystem>
 #include <iostream>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -100,12 +101,15 @@ struct Loaded {
   std::optional<synth::ImuBias> bias;  // the true IMU biases (synthetic scans)
 };
 
-// Sums of squared (estimate - truth) / sigma per quantity, over the axes of every scan.
+// Sums of squared (estimate - truth) / sigma per quantity, over the axes of every scan; each scan
+// counts once, with the first IMU setting run on it.
 struct SigmaCheck {
   double gyro_bias = 0, gravity = 0, accel_bias = 0;
   int axes = 0;
+  std::set<std::string> scans;
   void add(const Loaded& seq, const std::vector<FrameResult>& results) {
     if (!seq.bias || !seq.reader->has_ground_truth() || seq.reader->ground_truth().empty()) return;
+    if (!scans.insert(seq.label).second) return;
     const FrameResult* last = nullptr;
     for (const FrameResult& r : results) {
       if (r.status == TrackingStatus::kLost) break;
@@ -126,7 +130,8 @@ struct SigmaCheck {
   }
   void print() const {
     if (axes == 0) return;
-    std::printf("\n| estimate at the last full ICP frame before the first loss | axes | RMS of error / sigma |\n");
+    std::printf("\n%zu scans, each with its first IMU setting:\n\n", scans.size());
+    std::printf("| estimate at the last full ICP frame before the first loss | axes | RMS of error / sigma |\n");
     std::printf("| --- | --- | --- |\n");
     const auto rms = [&](double sum) { return std::sqrt(sum / axes); };
     std::printf("| gyro bias | %d | %.2f |\n| gravity | %d | %.2f |\n| accelerometer bias | %d | %.2f |\n", axes,
