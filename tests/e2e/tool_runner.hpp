@@ -6,9 +6,10 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <random>
 #include <sstream>
 #include <string>
+
+#include "../support/scratch_dir.hpp"
 
 namespace imufusion::test {
 
@@ -23,26 +24,6 @@ inline std::string read_text(const std::filesystem::path& path) {
   text << in.rdbuf();
   return text.str();
 }
-
-/// A fresh directory under the system temp directory, removed with the object.
-class ScratchDir {
- public:
-  explicit ScratchDir(const std::string& prefix) {
-    std::random_device random;
-    path_ = std::filesystem::temp_directory_path() / (prefix + std::to_string(random()));
-    std::filesystem::create_directories(path_);
-  }
-  ~ScratchDir() {
-    std::error_code ec;
-    std::filesystem::remove_all(path_, ec);
-  }
-  ScratchDir(const ScratchDir&) = delete;
-  ScratchDir& operator=(const ScratchDir&) = delete;
-  const std::filesystem::path& path() const { return path_; }
-
- private:
-  std::filesystem::path path_;
-};
 
 /// Runs `tool args` (args as a shell fragment) with its output captured under `scratch`.
 inline ToolRun run_tool(const std::filesystem::path& tool, const std::string& args,

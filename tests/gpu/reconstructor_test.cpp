@@ -10,6 +10,7 @@
 #include <random>
 #include <vector>
 
+#include "../support/scratch_dir.hpp"
 #include "gpu_test_env.hpp"
 #include "imufusion/eval.hpp"
 #include "imufusion/reconstructor.hpp"
@@ -253,8 +254,8 @@ TEST_F(ReconstructorTest, ResetStartsANewScan) {
 class FarWallTest : public test::GpuTest {};
 
 TEST_F(FarWallTest, FarNoisyDepthDoesNotLoseAnAlignedScan) {
-  std::random_device random;
-  const fs::path dir = fs::temp_directory_path() / ("imufusion_far_wall_" + std::to_string(random()));
+  const test::ScratchDir scratch("imufusion_far_wall_");
+  const fs::path dir = scratch.path() / "wall";
   synth::SynthConfig sc;
   sc.scene = synth::SceneKind::kWall;
   sc.seed = 201;
@@ -285,8 +286,6 @@ TEST_F(FarWallTest, FarNoisyDepthDoesNotLoseAnAlignedScan) {
   auto ate = evaluate_ate(reader->ground_truth(), rec->trajectory());
   ASSERT_TRUE(ate.ok()) << ate.error().describe();
   EXPECT_LT(ate->stats.rmse, 0.01);
-  std::error_code ec;
-  fs::remove_all(dir, ec);
 }
 
 TEST(ReconstructorConfig, RejectsSettingsOutOfRange) {

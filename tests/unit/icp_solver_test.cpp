@@ -282,11 +282,6 @@ TEST(IcpCpu, ASingleIterationBudgetIsSpentAtFullResolution) {
   EXPECT_LT(error.translation().norm(), 0.002);
 }
 
-}  // namespace
-}  // namespace imufusion
-
-namespace imufusion {
-namespace {
 
 TEST(DepthNoiseModel, InformationIsTheInverseVarianceRelativeToTheLeastNoise) {
   const DepthNoiseModel noise;
