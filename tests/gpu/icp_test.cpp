@@ -126,6 +126,8 @@ TEST_F(GpuTest, AssociationAndReductionMatchTheReference) {
 
     const NormalEquations want = reference::icp_reduce(gpu_rows, noise);
     EXPECT_EQ(gpu_eq->inliers, want.inliers);
+    EXPECT_EQ(gpu_eq->valid_pixels, want.valid_pixels);
+    EXPECT_GT(want.valid_pixels, want.inliers);
     auto near = [](double a, double b) { return std::abs(a - b) <= 1e-4 * (std::abs(b) + 1e-6); };
     EXPECT_GT(want.valid_information, want.inlier_information);
     EXPECT_GT(want.inlier_information, 0.0);

@@ -142,8 +142,10 @@ TEST(IcpIncrement, IsARotationEvenForLargeAngles) {
 TEST(IcpJudge, NamesTheFailingMetric) {
   IcpReliabilityThresholds t;
   IcpQuality q;
+  t.min_pixel_fraction = 0.3;
   q.inliers = 5000;
   q.inlier_fraction = 0.8;
+  q.pixel_fraction = 0.7;
   q.condition = 20;
   q.residual_per_weight = t.max_residual_per_weight / 2;
   std::string reason;
@@ -156,6 +158,22 @@ TEST(IcpJudge, NamesTheFailingMetric) {
   q.inliers = 10;
   EXPECT_FALSE(judge_icp(q, t, &reason));
   EXPECT_NE(reason.find("inliers"), std::string::npos);
+  q.inliers = 5000;
+  q.pixel_fraction = 0.2;  // the information-weighted fraction alone would pass
+  EXPECT_FALSE(judge_icp(q, t, &reason));
+  EXPECT_NE(reason.find("pixel fraction"), std::string::npos);
+}
+
+TEST(IcpConfigValidate, RejectsFractionsOutsideZeroToOne) {
+  IcpConfig c;
+  EXPECT_TRUE(c.validate(3).ok());
+  c.reliability.min_pixel_fraction = 1.5;
+  EXPECT_FALSE(c.validate(3).ok());
+  c.reliability.min_pixel_fraction = 0.3;
+  c.reliability.min_inlier_fraction = std::nan("");
+  const Status bad = c.validate(3);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().message.find("min_inlier_fraction"), std::string::npos);
 }
 
 TEST(IcpCpu, RecoversAKnownMotionInTheRoom) {
@@ -304,6 +322,7 @@ TEST(IcpReduce, PixelsCountInTheInlierFractionByTheirInformation) {
   const DepthNoiseModel noise;
   const NormalEquations eq = reference::icp_reduce(rows, noise);
   EXPECT_EQ(eq.inliers, 2u);
+  EXPECT_EQ(eq.valid_pixels, 4u);
   EXPECT_NEAR(eq.valid_information, 2 * noise.information(1.0) + 2 * noise.information(4.0), 1e-12);
   EXPECT_NEAR(eq.inlier_information, 2 * noise.information(1.0), 1e-12);
   EXPECT_GT(eq.inlier_information / eq.valid_information, 0.99);

@@ -13,33 +13,23 @@
 #include <vector>
 
 #include "imufusion/types.hpp"
+#include "../support/scratch_dir.hpp"
 
 namespace imufusion::testing {
 
-/// A fresh directory under the system temp dir, removed with its content on destruction.
-class TempDir {
+/// A ScratchDir named after the running test (imufusion_io_<suite>_<test>_<random>).
+class TempDir : public test::ScratchDir {
  public:
-  TempDir() {
-    std::random_device random;
+  TempDir() : ScratchDir(prefix()) {}
+  std::filesystem::path operator/(const std::string& name) const { return path() / name; }
+
+ private:
+  static std::string prefix() {
     const auto* test = ::testing::UnitTest::GetInstance()->current_test_info();
     std::string name = "imufusion_io_";
     if (test != nullptr) name += std::string(test->test_suite_name()) + "_" + test->name() + "_";
-    name += std::to_string(random()) + std::to_string(random());
-    path_ = std::filesystem::temp_directory_path() / name;
-    std::filesystem::create_directories(path_);
+    return name;
   }
-  ~TempDir() {
-    std::error_code ec;
-    std::filesystem::remove_all(path_, ec);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-
-  const std::filesystem::path& path() const { return path_; }
-  std::filesystem::path operator/(const std::string& name) const { return path_ / name; }
-
- private:
-  std::filesystem::path path_;
 };
 
 inline void write_text(const std::filesystem::path& path, const std::string& content) {

@@ -2,6 +2,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <utility>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
@@ -42,6 +43,10 @@ Status IcpConfig::validate(int levels) const {
   if (!(depth_noise.a >= 0 && depth_noise.b >= 0 &&
         std::isfinite(depth_noise.a + depth_noise.b + depth_noise.z0)))
     return bad("depth noise coefficients must be finite and non-negative");
+  for (const auto& [name, value] : {std::pair<const char*, double>{"min_inlier_fraction", reliability.min_inlier_fraction},
+                                     {"min_pixel_fraction", reliability.min_pixel_fraction}}) {
+    if (!(value >= 0 && value <= 1)) return bad(std::string(name) + " must be in [0, 1], got " + format(value));
+  }
   if (min_constrained_directions < 1 || min_constrained_directions > 6)
     return bad("min_constrained_directions must be 1..6, got " + std::to_string(min_constrained_directions));
   return {};
@@ -108,6 +113,8 @@ bool judge_icp(const IcpQuality& q, const IcpReliabilityThresholds& t, std::stri
     why = "inliers " + std::to_string(q.inliers) + " < " + std::to_string(t.min_inliers);
   } else if (q.inlier_fraction < t.min_inlier_fraction) {
     why = "inlier fraction " + format(q.inlier_fraction) + " < " + format(t.min_inlier_fraction);
+  } else if (q.pixel_fraction < t.min_pixel_fraction) {
+    why = "pixel fraction " + format(q.pixel_fraction) + " < " + format(t.min_pixel_fraction);
   } else if (!(q.condition <= t.max_condition)) {
     why = "condition " + format(q.condition) + " > " + format(t.max_condition);
   } else if (!(q.residual_per_weight <= t.max_residual_per_weight)) {
@@ -149,6 +156,7 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
       q.inliers = eq->inliers;
       q.weight_sum = eq->weight_sum;
       q.inlier_fraction = eq->valid_information > 0 ? eq->inlier_information / eq->valid_information : 0;
+      q.pixel_fraction = eq->valid_pixels > 0 ? double(eq->inliers) / double(eq->valid_pixels) : 0;
       q.condition = step.condition;
       q.residual = step.residual;
       q.residual_per_inlier = eq->inliers > 0 ? step.residual / double(eq->inliers) : 0;

@@ -84,6 +84,7 @@ Result<NormalEquations> IcpKernels::read_equations() const {
   eq.weight_sum = sums[29];
   eq.valid_information = sums[30];
   eq.inlier_information = sums[31];
+  eq.valid_pixels = static_cast<std::uint64_t>(sums[32] + 0.5);
   return eq;
 }
 

@@ -44,6 +44,7 @@ NormalEquations icp_reduce(const std::vector<IcpRow>& rows, const DepthNoiseMode
     if (!row.valid) continue;
     const double information = noise.information(row.z);
     eq.valid_information += information;
+    eq.valid_pixels += 1;
     if (row.w <= 0) continue;
     eq.inlier_information += information;
     eq.AtA += row.w * row.a * row.a.transpose();
