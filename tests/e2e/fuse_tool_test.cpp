@@ -14,6 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "../support/synth_config.hpp"
 #include "imufusion/image_io.hpp"
 #include "imufusion/mesh.hpp"
 #include "imufusion/synth.hpp"
@@ -56,12 +57,7 @@ class FuseTool : public ::testing::Test {
 };
 
 TEST_F(FuseTool, FusesASyntheticRoomIntoAnAccurateMesh) {
-  synth::SynthConfig config;
-  config.scene = synth::SceneKind::kRoom;
-  config.seed = 21;
-  config.width = 160;
-  config.height = 120;
-  config.frames = 30;
+  const synth::SynthConfig config = test::small_synth_config(synth::SceneKind::kRoom, 21, 30);
   const fs::path sequence = root_ / "room";
   ASSERT_TRUE(synth::synthesize(config, sequence).ok());
   const fs::path out = root_ / "out";

@@ -12,6 +12,7 @@
 #include <sstream>
 #include <string>
 
+#include "../support/synth_config.hpp"
 #include "imufusion/mesh.hpp"
 #include "imufusion/synth.hpp"
 #include "imufusion/trajectory.hpp"
@@ -130,12 +131,7 @@ TEST_F(MeshEvalTool, MatchesTheLibraryInTextAndJson) {
 }
 
 TEST_F(MeshEvalTool, ReadsSceneSeedPosesAndCameraFromASequence) {
-  synth::SynthConfig config;
-  config.scene = synth::SceneKind::kWall;
-  config.seed = 5;
-  config.width = 160;
-  config.height = 120;
-  config.frames = 12;
+  synth::SynthConfig config = test::small_synth_config(synth::SceneKind::kWall, 5, 12);
   config.color = false;
   const fs::path sequence = dir_ / "sequence";
   ASSERT_TRUE(synth::synthesize(config, sequence).ok());

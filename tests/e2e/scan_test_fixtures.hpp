@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "../support/synth_config.hpp"
 #include "imufusion/synth.hpp"
 #include "tool_runner.hpp"
 
@@ -25,14 +26,8 @@ inline nlohmann::json read_json(const std::filesystem::path& path) {
 /// A 160x120 synthetic sequence of `scene` written to root/name.
 inline std::filesystem::path synthesize_small(const std::filesystem::path& root, const std::string& name,
                                               synth::SceneKind scene, int frames, std::uint64_t seed) {
-  synth::SynthConfig config;
-  config.scene = scene;
-  config.seed = seed;
-  config.width = 160;
-  config.height = 120;
-  config.frames = frames;
   const std::filesystem::path dir = root / name;
-  auto summary = synth::synthesize(config, dir);
+  auto summary = synth::synthesize(test::small_synth_config(scene, seed, frames), dir);
   EXPECT_TRUE(summary.ok()) << summary.error().describe();
   return dir;
 }

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "../support/scratch_dir.hpp"
+#include "../support/synth_config.hpp"
 #include "gpu_test_env.hpp"
 #include "imufusion/eval.hpp"
 #include "imufusion/reconstructor.hpp"
@@ -33,13 +34,7 @@ class ReconstructorTest : public test::GpuTest {
   static void SetUpTestSuite() {
     std::random_device random;
     root_ = new fs::path(fs::temp_directory_path() / ("imufusion_reconstructor_" + std::to_string(random())));
-    synth::SynthConfig config;
-    config.scene = synth::SceneKind::kRoom;
-    config.seed = 11;
-    config.width = 160;
-    config.height = 120;
-    config.frames = 36;
-    config.color = true;
+    const synth::SynthConfig config = test::small_synth_config(synth::SceneKind::kRoom, 11, 36);
     synth_ok_ = synth::synthesize(config, *root_ / "room").ok();
   }
   static void TearDownTestSuite() {
@@ -256,13 +251,7 @@ class FarWallTest : public test::GpuTest {};
 TEST_F(FarWallTest, FarNoisyDepthDoesNotLoseAnAlignedScan) {
   const test::ScratchDir scratch("imufusion_far_wall_");
   const fs::path dir = scratch.path() / "wall";
-  synth::SynthConfig sc;
-  sc.scene = synth::SceneKind::kWall;
-  sc.seed = 201;
-  sc.width = 160;
-  sc.height = 120;
-  sc.frames = 8;
-  ASSERT_TRUE(synth::synthesize(sc, dir).ok());
+  ASSERT_TRUE(synth::synthesize(test::small_synth_config(synth::SceneKind::kWall, 201, 8), dir).ok());
   auto reader = SequenceReader::open(dir);
   ASSERT_TRUE(reader.ok()) << reader.error().describe();
   ReconstructorConfig c;

@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "imufusion/types.hpp"
 #include "../support/scratch_dir.hpp"
+#include "imufusion/types.hpp"
 
 namespace imufusion::testing {
 

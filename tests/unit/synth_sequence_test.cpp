@@ -11,6 +11,7 @@
 #include <sstream>
 #include <string>
 
+#include "../support/synth_config.hpp"
 #include "imufusion/image_io.hpp"
 #include "imufusion/sequence.hpp"
 #include "imufusion/synth.hpp"
@@ -33,13 +34,7 @@ class SynthSequence : public ::testing::Test {
   void TearDown() override { fs::remove_all(root_); }
 
   static SynthConfig small_config(SceneKind kind) {
-    SynthConfig c;
-    c.scene = kind;
-    c.seed = 5;
-    c.width = 80;
-    c.height = 60;
-    c.frames = 12;
-    return c;
+    return test::small_synth_config(kind, 5, 12, 80, 60);
   }
 
   fs::path root_;
