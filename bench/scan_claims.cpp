@@ -17,9 +17,9 @@
 //
 // Synthetic scans with an IMU also check the inertial estimates' reported sigmas, which the
 // re-estimation of a lost stretch takes as its prior: at the last frame ICP fixed in full before
-// the first loss, the gyro bias, gravity and accelerometer bias estimates against the truth, per
-// axis in units of the sigma reported with them, each scan once (with its first IMU setting).
-// Printed after the table: the RMS of those ratios (1 for honest sigmas).
+// the first loss, the gyro bias, gravity, accelerometer bias and velocity estimates against the
+// truth, per axis in units of the sigma reported with them, each scan once (with its first IMU
+// setting). Printed after the table: the RMS of those ratios (1 for honest sigmas).
 
 #include <algorithm>
 #include <cmath>
@@ -104,7 +104,8 @@ struct Loaded {
 // Sums of squared (estimate - truth) / sigma per quantity, over the axes of every scan; each scan
 // counts once, with the first IMU setting run on it.
 struct SigmaCheck {
-  double gyro_bias = 0, gravity = 0, accel_bias = 0;
+  double gyro_bias = 0, gravity = 0, accel_bias = 0, velocity = 0;
+  double velocity_error2 = 0;  // m^2/s^2, summed over the axes
   int axes = 0;
   std::set<std::string> scans;
   void add(const Loaded& seq, const std::vector<FrameResult>& results) {
@@ -126,6 +127,18 @@ struct SigmaCheck {
     gyro_bias += ratio2(e.gyro_bias - seq.bias->gyro, e.gyro_bias_sigma);
     gravity += ratio2(e.gravity_world - g, e.gravity_sigma);
     accel_bias += ratio2(e.accel_bias - seq.bias->accel, e.accel_bias_sigma);
+    // The IMU point's true velocity: a central difference of the ground truth around the frame.
+    const Trajectory& truth = seq.reader->ground_truth();
+    std::size_t k = 1;
+    while (k + 2 < truth.size() && truth[k].timestamp < last->timestamp) ++k;
+    const Eigen::Isometry3d world = truth.front().T_world_camera.inverse();
+    const Eigen::Vector3d lever = seq.reader->T_camera_imu().translation();
+    const Eigen::Vector3d v = ((world * truth[k + 1].T_world_camera) * lever -
+                               (world * truth[k - 1].T_world_camera) * lever) /
+                              (truth[k + 1].timestamp - truth[k - 1].timestamp);
+    const Eigen::Vector3d v_error = e.velocity_world - v;
+    velocity += ratio2(v_error, Eigen::Vector3d::Constant(e.velocity_sigma));
+    velocity_error2 += v_error.squaredNorm();
     axes += 3;
   }
   void print() const {
@@ -136,6 +149,8 @@ struct SigmaCheck {
     const auto rms = [&](double sum) { return std::sqrt(sum / axes); };
     std::printf("| gyro bias | %d | %.2f |\n| gravity | %d | %.2f |\n| accelerometer bias | %d | %.2f |\n", axes,
                 rms(gyro_bias), axes, rms(gravity), axes, rms(accel_bias));
+    std::printf("| velocity | %d | %.2f (RMS error %.1f mm/s per axis) |\n", axes, rms(velocity),
+                1000 * rms(velocity_error2));
   }
 };
 SigmaCheck sigma_check;
