@@ -97,6 +97,13 @@ struct ReconstructorConfig {
   /// 2.3 times smaller than it (bench/scan_claims: RMS of error / sigma over 12 scans).
   double drift_gyro_bias_sigma_scale = 0.3;
   double drift_gravity_sigma_scale = 2.3;
+  /// When a loss ends, the lost frames are first placed by ICP backward from the recovery, each
+  /// seeded by the frame after it and dead reckoning's motion between the two, until one is not
+  /// reliable (a camera turning back from a bare wall sees the model for a while before the
+  /// forward search can confirm a pose); the drift model re-estimates only the frames before.
+  /// Their depth is kept while lost: the newest `retrack_lost_frames` frames (0: none, no
+  /// backward placement), at 2 bytes per pixel (150 frames of 640x480: 92 MB).
+  int retrack_lost_frames = 150;
   DeviceOptions device;
   /// Convergence (per-step rotation, rad, and translation, m) that counts while lost or
   /// recovering: an update below it means ICP has settled onto the model (1 mm / 0.06 deg per
@@ -118,6 +125,7 @@ struct FrameTimings {
   double integrate_ms = 0;
   double raycast_ms = 0;
   double relocalize_ms = 0;  // the relocalization search with its raycasts and ICP, when it ran
+  double retrack_ms = 0;     // a recovery's backward placement and re-estimation of the loss
   double total_ms = 0;
   std::vector<KernelTiming> kernels;
 };
@@ -130,6 +138,8 @@ struct FrameResult {
   PoseSource source = PoseSource::kInitial;
   bool fused = false;
   bool recovered = false;  // this frame ended a loss
+  /// Frames of the loss this recovery placed by ICP backward (their poses in trajectory()).
+  std::size_t retracked = 0;
   /// The frame's pose came from a relocalization search (ReconstructorConfig::relocalize_with_imu)
   /// rather than from ICP started at the dead-reckoned pose.
   bool relocalized = false;
@@ -178,9 +188,11 @@ class Reconstructor {
   Status reset();
 
   /// One pose per frame since create() or reset(). When a loss ends in tracking again, the poses
-  /// of the frames in between (dead-reckoned or partial, never fused) are re-estimated from the
-  /// correction the recovery found (its ICP pose against the dead-reckoned one), back to the
-  /// last fully constrained frame: the conditional mean of dead reckoning's errors given that
+  /// of the frames in between (dead-reckoned or partial, never fused) are re-estimated: the
+  /// newest by ICP backward from the recovery while it is reliable
+  /// (ReconstructorConfig::retrack_lost_frames), the rest from the correction that remains at
+  /// the oldest frame so placed (its ICP pose against the dead-reckoned one), back to the last
+  /// fully constrained frame: the conditional mean of dead reckoning's errors given that
   /// end error, under the navigator's sigmas when the loss began. The rotation error is the gyro
   /// bias error (linear in time) plus the gyro's noise (a random walk); it tilts the gravity
   /// the accelerometer model removes (drift cubic in time), to which a velocity error (linear)

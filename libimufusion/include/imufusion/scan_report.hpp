@@ -32,6 +32,7 @@ struct ScanStatistics {
   std::size_t dead_reckoned = 0;
   std::size_t partial = 0;  // frames with pose source icp_partial (degenerate depth, IMU-aided)
   std::size_t relocalizations = 0;  // frames placed by the relocalization search
+  std::size_t retracked = 0;  // lost frames placed by ICP backward from their recovery
   double mean_icp_iterations = 0;    // over frames where ICP ran
   double median_icp_iterations = 0;  // over frames where ICP ran
   double mean_frame_ms = 0;

@@ -36,6 +36,8 @@ Status ReconstructorConfig::validate() const {
     return bad("relocalization_drift_acceleration must be finite and >= 0");
   if (!(relocalization_max_radius >= 0 && relocalization_max_radius <= 10))
     return bad("relocalization_max_radius must be 0..10 m, got " + std::to_string(relocalization_max_radius));
+  if (retrack_lost_frames < 0 || retrack_lost_frames > 100000)
+    return bad("retrack_lost_frames must be 0..100000, got " + std::to_string(retrack_lost_frames));
   for (const double scale : {drift_gyro_bias_sigma_scale, drift_gravity_sigma_scale})
     if (!(scale > 0) || !std::isfinite(scale))
       return bad("drift sigma scales must be finite and positive, got " + std::to_string(scale));

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cmath>
+#include <deque>
 #include <limits>
 #include <string>
 #include <utility>
@@ -89,12 +90,16 @@ struct Reconstructor::Impl {
     Eigen::Isometry3d estimate, corrected;
     DriftPrior prior;
     std::vector<std::pair<std::size_t, Eigen::Matrix3d>> fixed;
+    std::deque<std::pair<std::size_t, DepthImage>> depth;  // the lost frames kept (see lost_depth)
   };
   std::optional<PendingCorrection> pending;
   // The frames since the last fully constrained one that partial ICP placed, with the world
   // translation directions it fixed.
   std::vector<std::pair<std::size_t, Eigen::Matrix3d>> partial_fixed;
   DriftPrior constrained_prior;  // the inertial estimates at the last fully constrained frame
+  // The depth of the newest frames since the last fully constrained one (dead-reckoned or
+  // partial), at most config.retrack_lost_frames: a recovery places them backward.
+  std::deque<std::pair<std::size_t, DepthImage>> lost_depth;
   Eigen::Isometry3d T_world_reference = Eigen::Isometry3d::Identity();  // pose of the raycast
   bool has_reference = false;
 
@@ -200,14 +205,17 @@ struct Reconstructor::Impl {
     return t;
   }
 
+  // ICP of the current frame against the reference from a seed; `settling`: the budget and
+  // convergence thresholds of a frame that must first settle onto the model (lost or
+  // recovering).
   Result<IcpResult> align(const DepthImage& depth, const Eigen::Isometry3d& T_world_seed,
-                          const MotionPrediction& prediction, FrameTimings& timings) {
+                          const MotionPrediction& prediction, bool settling, FrameTimings& timings) {
     const auto t0 = Clock::now();
     IcpConfig icp = config.icp;
     icp.keep_seed_in_degenerate_directions =
         config.partial_icp_with_imu && prediction.rotation_from_imu && prediction.translation_predicted;
     icp.reliability = reliability(depth);
-    if (machine.recovering_or_lost()) {
+    if (settling) {
       icp.max_total_iterations = std::max(icp.max_total_iterations, config.tracking.recovery_icp_iterations);
       icp.converged_rotation = std::max(icp.converged_rotation, config.recovery_converged_rotation);
       icp.converged_translation = std::max(icp.converged_translation, config.recovery_converged_translation);
@@ -313,7 +321,7 @@ struct Reconstructor::Impl {
       T_candidate.translation() = c.translation;
       IMUFUSION_RETURN_IF_ERROR(update_reference(T_candidate, timings));
       // No IMU prediction: the full six-direction solve, which a wall alone cannot pass.
-      auto icp = align(depth, T_candidate, MotionPrediction{}, timings);
+      auto icp = align(depth, T_candidate, MotionPrediction{}, true, timings);
       if (!icp) return icp.error();
       const Eigen::Isometry3d T_world_camera = T_world_reference * icp->T_ref_cur;
       if (icp->quality.iterations > 0 && judge_icp(icp->quality, plausible, nullptr))
@@ -331,6 +339,35 @@ struct Reconstructor::Impl {
     timings.raycast_ms = raycast_ms;
     timings.relocalize_ms = ms_since(t0);
     return best;
+  }
+
+  // The lost frames kept, placed by ICP backward from the recovery: frame i's seed is frame
+  // i+1's placed pose moved by dead reckoning's motion between the two (accurate over a frame
+  // however far dead reckoning has drifted), full six-direction ICP as while lost, until a frame
+  // is not reliably placed or was not kept. The correction that remains is then measured at the
+  // oldest frame placed, and only the frames before it are re-estimated by the drift model.
+  // Returns that correction; the placed poses are in `placed`, newest first. Leaves the current
+  // frame and the reference to the caller to restore.
+  Result<PendingCorrection> retrack(const PendingCorrection& c, std::vector<Eigen::Isometry3d>& placed) {
+    PendingCorrection out = c;
+    out.depth.clear();
+    FrameTimings scratch;
+    for (auto it = c.depth.rbegin(); it != c.depth.rend(); ++it) {
+      const std::size_t i = it->first;
+      if (i + 1 != out.index || i <= c.anchor) break;
+      const Eigen::Isometry3d& dead = trajectory[i].T_world_camera;
+      const Eigen::Isometry3d seed = out.corrected * out.estimate.inverse() * dead;
+      IMUFUSION_RETURN_IF_ERROR(preprocess(it->second, nullptr, scratch));
+      IMUFUSION_RETURN_IF_ERROR(update_reference(seed, scratch));
+      auto icp = align(it->second, seed, MotionPrediction{}, true, scratch);
+      if (!icp) return icp.error();
+      if (!icp->reliable || !icp->quality.converged) break;
+      out.index = i;
+      out.estimate = dead;
+      out.corrected = T_world_reference * icp->T_ref_cur;
+      placed.push_back(out.corrected);
+    }
+    return out;
   }
 
   // See Reconstructor::trajectory().
@@ -452,7 +489,7 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
     const StampedPose& previous = m.trajectory.back();
     if (m.navigator) r.imu = m.navigator->predict(previous.timestamp, timestamp);
     const Eigen::Isometry3d T_world_seed = previous.T_world_camera * r.imu.T_a_b;
-    auto icp = m.align(depth, T_world_seed, r.imu, r.timings);
+    auto icp = m.align(depth, T_world_seed, r.imu, m.machine.recovering_or_lost(), r.timings);
     if (!icp) return icp.error();
     const Eigen::Matrix3d R_world_reference = m.T_world_reference.linear();
     Eigen::Isometry3d T_world_icp = m.T_world_reference * icp->T_ref_cur;
@@ -490,7 +527,7 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
                            decision.source == PoseSource::kIcp && !r.relocalized);
     if (was_lost && decision.status == TrackingStatus::kRecovering)
       m.pending = Impl::PendingCorrection{m.last_constrained_index, r.index, T_world_estimate, r.T_world_camera,
-                                          m.constrained_prior, m.partial_fixed};
+                                          m.constrained_prior, m.partial_fixed, std::move(m.lost_depth)};
     if (decision.status == TrackingStatus::kLost) m.pending.reset();
     // Only while dead reckoning is still within ICP's reach: from a seed further off, partial
     // ICP may settle on the wrong stretch of the model in the directions it fixes too.
@@ -502,6 +539,10 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
     m.last_constrained_index = r.index;
     m.constrained_prior = m.drift_prior();
     m.partial_fixed.clear();
+    m.lost_depth.clear();
+  } else if (m.config.retrack_lost_frames > 0) {
+    m.lost_depth.emplace_back(r.index, depth);
+    if (m.lost_depth.size() > static_cast<std::size_t>(m.config.retrack_lost_frames)) m.lost_depth.pop_front();
   }
   r.status = decision.status;
   r.source = decision.source;
@@ -516,8 +557,17 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
   IMUFUSION_RETURN_IF_ERROR(m.update_reference(r.T_world_camera, r.timings));
   m.trajectory.push_back({timestamp, r.T_world_camera});
   if (decision.recovered && m.pending) {
-    m.correct_lost_stretch(*m.pending);
+    const auto t1 = Clock::now();
+    std::vector<Eigen::Isometry3d> placed;
+    auto correction = m.retrack(*m.pending, placed);
+    if (!correction) return correction.error();
+    // Back to this frame's reference for the next frame.
+    if (!m.pending->depth.empty()) IMUFUSION_RETURN_IF_ERROR(m.update_reference(r.T_world_camera, r.timings));
+    for (std::size_t k = 0; k < placed.size(); ++k) m.trajectory[m.pending->index - 1 - k].T_world_camera = placed[k];
+    r.retracked = placed.size();
+    m.correct_lost_stretch(*correction);
     m.pending.reset();
+    r.timings.retrack_ms = ms_since(t1);
   }
   r.inertial = m.inertial_status();
   r.timings.total_ms = ms_since(t0);
@@ -545,6 +595,7 @@ Result<FrameResult> Reconstructor::fuse_with_pose(double timestamp, const DepthI
   m.constrained_prior = m.drift_prior();
   m.pending.reset();
   m.partial_fixed.clear();
+  m.lost_depth.clear();
   if (!m.trajectory.empty() && m.navigator) {
     const StampedPose& previous = m.trajectory.back();
     r.imu = m.navigator->predict(previous.timestamp, timestamp);
@@ -610,6 +661,7 @@ Status Reconstructor::reset() {
   m.field_current = false;
   m.pending.reset();
   m.partial_fixed.clear();
+  m.lost_depth.clear();
   m.last_constrained_time = 0;
   m.last_constrained_index = 0;
   m.lost_frames_since_attempt = 0;

@@ -76,6 +76,7 @@ ScanStatistics summarize_scan(const std::vector<FrameResult>& frames) {
     if (f.source == PoseSource::kDeadReckoning) ++s.dead_reckoned;
     if (f.source == PoseSource::kIcpPartial) ++s.partial;
     if (f.relocalized) ++s.relocalizations;
+    s.retracked += f.retracked;
     if (f.icp_ran) iterations.push_back(f.icp.quality.iterations);
     ms.push_back(f.timings.total_ms);
     total_ms += f.timings.total_ms;
