@@ -4,7 +4,7 @@
 //
 //   scan_claims [--scenes room,wall,fast] [--seeds 101,102,103] [--size WxH] [--frames N]
 //               [--sequence DIR [--sequence-frames N]] [--settings imu-1,imu-2,icp-10,icp-30]
-//               [--retrack-lost-frames N] [--work DIR]
+//               [--retrack-lost-frames N] [--max-condition K] [--work DIR]
 //
 // Settings compared, per scan:
 //   imu-1   gyro seed, at most 1 Gauss-Newton step per frame (the paper's IMU setting)
@@ -61,6 +61,7 @@ struct Options {
   fs::path work = fs::temp_directory_path() / "imufusion_scan_claims";
   std::vector<std::string> settings = {"imu-1", "imu-2", "icp-10", "icp-30"};
   int retrack_lost_frames = ReconstructorConfig{}.retrack_lost_frames;  // 0: no backward placement
+  double max_condition = IcpReliabilityThresholds{}.max_condition;     // the reliability test's kappa
 };
 
 std::vector<std::string> split(const std::string& text) {
@@ -89,6 +90,7 @@ bool parse(int argc, char** argv, Options& opt) {
     else if (a == "--sequence-frames") opt.sequence_frames = std::atol(v.c_str());
     else if (a == "--work") opt.work = v;
     else if (a == "--retrack-lost-frames") opt.retrack_lost_frames = std::atoi(v.c_str());
+    else if (a == "--max-condition") opt.max_condition = std::atof(v.c_str());
     else if (a == "--settings") opt.settings = split(v);
     else return false;
   }
@@ -178,6 +180,7 @@ Result<Loaded> load(const fs::path& dir, std::string label, long max_frames) {
 void run_setting(const Loaded& seq, const Setting& setting, const Options& opt) {
   ReconstructorConfig c;
   c.retrack_lost_frames = opt.retrack_lost_frames;
+  c.icp.reliability.max_condition = opt.max_condition;
   c.intrinsics = *seq.reader->intrinsics();
   c.intrinsics.width = seq.frames.front().depth.width;
   c.intrinsics.height = seq.frames.front().depth.height;
@@ -226,7 +229,7 @@ int main(int argc, char** argv) {
   if (!parse(argc, argv, opt)) {
     std::cerr << "usage: scan_claims [--scenes room,wall,fast] [--seeds 101,102] [--size WxH] [--frames N]\n"
                  "                   [--sequence DIR [--sequence-frames N]] [--settings imu-1,imu-2,icp-10,icp-30]\n"
-                 "                   [--retrack-lost-frames N] [--work DIR]\n";
+                 "                   [--retrack-lost-frames N] [--max-condition K] [--work DIR]\n";
     return 2;
   }
   std::printf("| scan | setting | ATE mm | lost | recovering | recoveries | frames to recover | placed backward | median it | mean it | all tracking after the stretch | fps |\n");
