@@ -349,8 +349,8 @@ struct Reconstructor::Impl {
   // Returns that correction; the placed poses are in `placed`, newest first. Leaves the current
   // frame and the reference to the caller to restore.
   Result<PendingCorrection> retrack(const PendingCorrection& c, std::vector<Eigen::Isometry3d>& placed) {
-    PendingCorrection out = c;
-    out.depth.clear();
+    // Everything but the kept depth, which only this pass reads.
+    PendingCorrection out{c.anchor, c.index, c.estimate, c.corrected, c.prior, c.fixed, {}};
     FrameTimings scratch;
     for (auto it = c.depth.rbegin(); it != c.depth.rend(); ++it) {
       const std::size_t i = it->first;
