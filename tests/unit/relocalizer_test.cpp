@@ -126,6 +126,13 @@ TEST(SurfaceDistanceField, MergedSearchesKeepTheBestDistinctCandidates) {
   EXPECT_DOUBLE_EQ(merged[2].translation.x(), 1.0);
   EXPECT_TRUE(merge_candidates({}, {}, 3, 0.1).empty());
   EXPECT_EQ(merge_candidates(a, b, 10, 0.1).size(), 4u);
+  // The search's own rule: closer than the separation along every axis is the same candidate,
+  // a diagonal neighbour 8 cm off in x and y (11 cm apart) included.
+  TranslationCandidate diagonal = at(0.08, 0.25);
+  diagonal.translation.y() = 0.08;
+  EXPECT_EQ(merge_candidates({at(0.0, 0.3)}, {diagonal}, 3, 0.1).size(), 1u);
+  diagonal.translation.y() = 0.1;
+  EXPECT_EQ(merge_candidates({at(0.0, 0.3)}, {diagonal}, 3, 0.1).size(), 2u);
 }
 
 namespace {

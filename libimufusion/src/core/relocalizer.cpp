@@ -161,7 +161,7 @@ std::vector<TranslationCandidate> merge_candidates(const std::vector<Translation
   for (const TranslationCandidate& c : all) {
     if (static_cast<int>(out.size()) >= count) break;
     if (std::none_of(out.begin(), out.end(), [&](const TranslationCandidate& kept) {
-          return (kept.translation - c.translation).norm() < separation;
+          return (kept.translation - c.translation).cwiseAbs().maxCoeff() < separation;
         }))
       out.push_back(c);
   }

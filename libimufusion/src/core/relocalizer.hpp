@@ -56,7 +56,8 @@ class SurfaceDistanceField {
 };
 
 /// The `count` lowest-cost candidates of two searches (regions that may overlap), one of a pair
-/// closer than `separation` counting once (the lower cost kept).
+/// closer than `separation` along every axis counting once (the lower cost kept): the rule
+/// SurfaceDistanceField::search applies within one search, with separation = 2 cells.
 std::vector<TranslationCandidate> merge_candidates(const std::vector<TranslationCandidate>& a,
                                                    const std::vector<TranslationCandidate>& b, int count,
                                                    double separation);
