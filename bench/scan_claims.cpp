@@ -4,7 +4,7 @@
 //
 //   scan_claims [--scenes room,wall,fast] [--seeds 101,102,103] [--size WxH] [--frames N]
 //               [--sequence DIR [--sequence-frames N]] [--settings imu-1,imu-2,icp-10,icp-30]
-//               [--retrack-lost-frames N] [--max-condition K] [--work DIR]
+//               [--retrack-lost-frames N] [--max-condition K] [--seed-gate SIGMAS] [--work DIR]
 //
 // Settings compared, per scan:
 //   imu-1   gyro seed, at most 1 Gauss-Newton step per frame (the paper's IMU setting)
@@ -62,6 +62,7 @@ struct Options {
   std::vector<std::string> settings = {"imu-1", "imu-2", "icp-10", "icp-30"};
   int retrack_lost_frames = ReconstructorConfig{}.retrack_lost_frames;  // 0: no backward placement
   double max_condition = IcpReliabilityThresholds{}.max_condition;     // the reliability test's kappa
+  double seed_gate = 0;  // > 0: ReconstructorConfig::seed_gate_with_imu at this IcpConfig::seed_gate_sigmas
 };
 
 std::vector<std::string> split(const std::string& text) {
@@ -91,6 +92,7 @@ bool parse(int argc, char** argv, Options& opt) {
     else if (a == "--work") opt.work = v;
     else if (a == "--retrack-lost-frames") opt.retrack_lost_frames = std::atoi(v.c_str());
     else if (a == "--max-condition") opt.max_condition = std::atof(v.c_str());
+    else if (a == "--seed-gate") opt.seed_gate = std::atof(v.c_str());
     else if (a == "--settings") opt.settings = split(v);
     else return false;
   }
@@ -181,6 +183,11 @@ void run_setting(const Loaded& seq, const Setting& setting, const Options& opt) 
   ReconstructorConfig c;
   c.retrack_lost_frames = opt.retrack_lost_frames;
   c.icp.reliability.max_condition = opt.max_condition;
+  if (opt.seed_gate > 0) {
+    c.seed_gate_with_imu = true;
+    c.icp.seed_gate_sigmas = opt.seed_gate;
+    c.icp.seed_gate_hold_sigmas = std::min(c.icp.seed_gate_hold_sigmas, opt.seed_gate);
+  }
   c.intrinsics = *seq.reader->intrinsics();
   c.intrinsics.width = seq.frames.front().depth.width;
   c.intrinsics.height = seq.frames.front().depth.height;
@@ -229,7 +236,7 @@ int main(int argc, char** argv) {
   if (!parse(argc, argv, opt)) {
     std::cerr << "usage: scan_claims [--scenes room,wall,fast] [--seeds 101,102] [--size WxH] [--frames N]\n"
                  "                   [--sequence DIR [--sequence-frames N]] [--settings imu-1,imu-2,icp-10,icp-30]\n"
-                 "                   [--retrack-lost-frames N] [--max-condition K] [--work DIR]\n";
+                 "                   [--retrack-lost-frames N] [--max-condition K] [--seed-gate SIGMAS] [--work DIR]\n";
     return 2;
   }
   std::printf("| scan | setting | ATE mm | lost | recovering | recoveries | frames to recover | placed backward | median it | mean it | all tracking after the stretch | fps |\n");

@@ -121,6 +121,10 @@ TEST_F(ScanTool, WallStretchIsReportedAsLostAndNotFused) {
     double last_constrained = 0;
     for (const Row& row : rows) {
       const double t = std::stod(row.at("timestamp"));
+      // The seed gate is off by default: no frame reports a disagreement.
+      if (!row.at("imu_disagreement").empty()) {
+        EXPECT_EQ(std::stod(row.at("imu_disagreement")), 0.0) << " t=" << row.at("timestamp");
+      }
       if (row.at("pose_source") == "icp" || row.at("pose_source") == "initial") last_constrained = t;
       if (row.at("pose_source") == "icp_partial") {
         EXPECT_TRUE(flags.empty()) << "partial alignment without an IMU at t=" << row.at("timestamp");

@@ -117,6 +117,29 @@ TEST_F(ReconstructorTest, TracksTheRoomWithTheImuInTwoIterationsPerFrame) {
   EXPECT_EQ(rec.validation_error_count(), 0u);
 }
 
+TEST_F(ReconstructorTest, TheSeedGateLeavesWellTrackedFramesAlone) {
+  // On the room ICP agrees with a settled inertial prediction: with the gate on, frames are
+  // checked once the accelerometer's velocity settled, none is moved back, and tracking is as
+  // without it.
+  ReconstructorConfig c = config(true, 2);
+  c.seed_gate_with_imu = true;
+  Reconstructor rec = make(c);
+  std::size_t inertial = 0;
+  for (const Frame& f : frames_) {
+    auto r = rec.track_and_fuse(f.timestamp, f.depth, f.color ? &*f.color : nullptr, f.imu);
+    ASSERT_TRUE(r.ok()) << r.error().describe();
+    EXPECT_EQ(r->status, TrackingStatus::kTracking) << "t=" << f.timestamp << ": " << r->icp.reason;
+    EXPECT_EQ(r->icp.quality.seed_gated_directions, 0) << "t=" << f.timestamp << ": " << r->icp.reason;
+    if (r->imu.translation_inertial) {
+      ++inertial;
+      EXPECT_GT(r->imu.translation_sigma, 0.0);
+      EXPECT_GT(r->imu.rotation_sigma, 0.0);
+    }
+  }
+  EXPECT_GT(inertial, 0u);
+  EXPECT_LT(ate(rec.trajectory()), 0.01);
+}
+
 TEST_F(ReconstructorTest, BaselineWithoutImuTracksWithMoreIterations) {
   Reconstructor rec = make(config(false, 30));
   std::vector<FrameResult> results;

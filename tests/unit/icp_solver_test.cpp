@@ -330,5 +330,116 @@ TEST(IcpReduce, PixelsCountInTheInlierFractionByTheirInformation) {
   EXPECT_DOUBLE_EQ(counted.inlier_information / counted.valid_information, 0.5);
 }
 
+// Normal equations of a quadratic cost whose minimum is the pose `target` (as T_ref_cur), with
+// AtA's singular values `s` along the coordinate axes and a noise floor in the residual: the
+// Gauss-Newton step from any pose lands on the minimum.
+class QuadraticSource : public NormalEquationSource {
+ public:
+  QuadraticSource(const Eigen::Matrix<double, 6, 1>& s, const Eigen::Matrix<double, 6, 1>& target)
+      : AtA_(s.asDiagonal()), target_(target) {}
+  int levels() const override { return 1; }
+  Result<NormalEquations> evaluate(int, const Eigen::Isometry3d& T, float, float) override {
+    Eigen::Matrix<double, 6, 1> at;
+    const Eigen::AngleAxisd aa(T.linear());
+    at.head<3>() = aa.angle() * aa.axis();
+    at.tail<3>() = T.translation();
+    const Eigen::Matrix<double, 6, 1> dx = target_ - at;
+    NormalEquations eq;
+    eq.AtA = AtA_;
+    eq.Atb = AtA_ * dx;
+    eq.weight_sum = 5000;
+    eq.btb = dx.dot(AtA_ * dx) + 1e-6 * eq.weight_sum;  // a residual of 1 mm per unit weight
+    eq.inliers = eq.valid_pixels = 5000;
+    eq.valid_information = eq.inlier_information = 5000;
+    return eq;
+  }
+
+ private:
+  Eigen::Matrix<double, 6, 6> AtA_;
+  Eigen::Matrix<double, 6, 1> target_;
+};
+
+// The strong directions need 1 mm / 0.06 deg of motion; tz, kappa 200, the weak one, `weak_m`.
+Eigen::Matrix<double, 6, 1> gate_target(double weak_m) {
+  Eigen::Matrix<double, 6, 1> x;
+  x << 0.001, -0.001, 0.0005, 0.001, -0.001, weak_m;
+  return x;
+}
+
+Eigen::Matrix<double, 6, 1> gate_singular_values() {
+  Eigen::Matrix<double, 6, 1> s;
+  s << 2e4, 2e4, 2e4, 2e4, 2e4, 100;  // tz: kappa 200, between seed_gate_condition and max_condition
+  return s;
+}
+
+IcpConfig gated_config() {
+  IcpConfig config;
+  config.keep_seed_in_degenerate_directions = true;
+  config.seed_sigma_rotation = 0.0005;
+  config.seed_sigma_translation = 0.001;
+  return config;
+}
+
+TEST(IcpSeedGate, AWeakDirectionThatMovesFarFromTheSeedKeepsTheSeed) {
+  // ICP pulls 8 mm along tz against a 1 mm prediction sigma (and its own ~0.1 mm there).
+  QuadraticSource source(gate_singular_values(), gate_target(0.008));
+  auto result = run_icp(source, gated_config(), Eigen::Isometry3d::Identity());
+  ASSERT_TRUE(result.ok());
+  EXPECT_FALSE(result->reliable);
+  EXPECT_TRUE(result->partial) << result->reason;
+  EXPECT_EQ(result->quality.constrained_directions, 5);
+  EXPECT_GT(result->quality.seed_disagreement, 7.0);
+  EXPECT_NE(result->reason.find("kappa 200"), std::string::npos) << result->reason;
+  // tz stays at the seed; the strong directions take ICP's motion.
+  EXPECT_NEAR(result->T_ref_cur.translation().z(), 0.0, 1e-9);
+  EXPECT_NEAR(result->T_ref_cur.translation().x(), 0.001, 1e-6);
+  EXPECT_NEAR(result->T_ref_cur.translation().y(), -0.001, 1e-6);
+  Eigen::Matrix3d fixed_xy = Eigen::Matrix3d::Identity();
+  fixed_xy(2, 2) = 0;
+  EXPECT_LT((result->fixed_translation - fixed_xy).norm(), 1e-9) << result->fixed_translation;
+}
+
+TEST(IcpSeedGate, AMoveWithinTheUncertaintyIsTakenWhole) {
+  QuadraticSource source(gate_singular_values(), gate_target(0.002));  // 2 sigma
+  auto result = run_icp(source, gated_config(), Eigen::Isometry3d::Identity());
+  ASSERT_TRUE(result.ok());
+  EXPECT_TRUE(result->reliable) << result->reason;
+  EXPECT_FALSE(result->partial);
+  EXPECT_NEAR(result->quality.seed_disagreement, 2.0, 0.1);
+  EXPECT_NEAR(result->T_ref_cur.translation().z(), 0.002, 1e-6);
+}
+
+TEST(IcpSeedGate, StrongDirectionsAndUnknownSeedsAreNotGated) {
+  // 8 mm along a strongly constrained direction is ICP's to decide.
+  Eigen::Matrix<double, 6, 1> strong = gate_target(0.0);
+  strong(3) = 0.008;
+  QuadraticSource a(gate_singular_values(), strong);
+  auto along_strong = run_icp(a, gated_config(), Eigen::Isometry3d::Identity());
+  ASSERT_TRUE(along_strong.ok());
+  EXPECT_TRUE(along_strong->reliable) << along_strong->reason;
+  EXPECT_NEAR(along_strong->T_ref_cur.translation().x(), 0.008, 1e-6);
+  // Without a seed uncertainty there is no gate.
+  IcpConfig unknown = gated_config();
+  unknown.seed_sigma_rotation = unknown.seed_sigma_translation = 0;
+  QuadraticSource b(gate_singular_values(), gate_target(0.008));
+  auto ungated = run_icp(b, unknown, Eigen::Isometry3d::Identity());
+  ASSERT_TRUE(ungated.ok());
+  EXPECT_TRUE(ungated->reliable) << ungated->reason;
+  EXPECT_EQ(ungated->quality.seed_disagreement, 0.0);
+  EXPECT_NEAR(ungated->T_ref_cur.translation().z(), 0.008, 1e-6);
+}
+
+TEST(IcpConfigValidate, RejectsBadSeedGateSettings) {
+  IcpConfig config;
+  config.seed_sigma_translation = -0.001;
+  EXPECT_FALSE(config.validate(3).ok());
+  config = IcpConfig{};
+  config.seed_gate_condition = 0.5;
+  EXPECT_FALSE(config.validate(3).ok());
+  config = IcpConfig{};
+  config.seed_gate_sigmas = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(config.validate(3).ok());
+}
+
 }  // namespace
 }  // namespace imufusion

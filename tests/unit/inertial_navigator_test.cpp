@@ -75,6 +75,15 @@ TEST(InertialNavigator, IntervalsThatAreNotIntervalsPredictNothing) {
   const MotionPrediction zero = nav.predict(0.2, 0.2);
   EXPECT_TRUE(zero.rotation_from_imu);
   EXPECT_TRUE(zero.T_a_b.matrix().isIdentity(1e-15));
+  EXPECT_EQ(zero.rotation_sigma, 0.0);
+  // Gyro white noise over the interval and the bias prior's uncertainty times its length.
+  const InertialConfig c;
+  const MotionPrediction p = nav.predict(0.1, 0.2);
+  EXPECT_NEAR(p.rotation_sigma,
+              std::sqrt(c.gyro_noise_density * c.gyro_noise_density * 0.1 +
+                        c.gyro_bias_prior_sigma * c.gyro_bias_prior_sigma * 0.01),
+              1e-9);
+  EXPECT_EQ(p.translation_sigma, 0.0);  // nothing tracked yet
 }
 
 }  // namespace

@@ -171,10 +171,22 @@ TEST(InertialTranslation, DeadReckoningHoldsVelocityUntilItsUncertaintyIsTooLarg
   const double dt = 1.0 / 30.0;
   Eigen::Isometry3d pose = m.pose(0.0);
   int last_predicted = -1;
+  double previous_sigma = 0;
   for (int k = 1; k <= 90; ++k) {
     const double ta = (k - 1) * dt, tb = k * dt;
     const MotionPrediction p = nav.predict(ta, tb);
-    if (p.translation_predicted) last_predicted = k;
+    if (p.translation_predicted) {
+      last_predicted = k;
+      // The velocity's uncertainty over the step and the random walk's within it.
+      const double sv = nav.status().velocity_sigma, q = config.constant_velocity_process_noise;
+      EXPECT_NEAR(p.translation_sigma, std::sqrt(sv * sv * dt * dt + q * q * dt * dt * dt / 3), 1e-12);
+      if (k > 32) {
+        EXPECT_GT(p.translation_sigma, previous_sigma);  // grows while dead reckoning
+      }
+      previous_sigma = p.translation_sigma;
+    } else {
+      EXPECT_EQ(p.translation_sigma, 0.0);
+    }
     const bool reliable = k <= 30;  // then 2 s of dead reckoning from the prediction
     const Eigen::Isometry3d next = reliable ? m.pose(tb) : pose * p.T_a_b;
     nav.observe(ta, tb, pose, next, reliable);

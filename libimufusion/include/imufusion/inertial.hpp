@@ -129,6 +129,15 @@ struct MotionPrediction {
   bool translation_predicted = false;
   double covered_fraction = 0;  // of [ta, tb] interpolated between samples
   int samples_used = 0;
+  /// 1 sigma per axis of the predicted rotation (rad: gyro white noise and the bias estimate's
+  /// uncertainty over the interval) and translation (m: the velocity estimate's uncertainty and
+  /// the velocity random walk over the interval); 0 when not predicted.
+  double rotation_sigma = 0;
+  double translation_sigma = 0;
+  /// The translation is an inertial estimate: the accelerometer propagated a velocity tracked
+  /// well enough (known at least twice as well as one tracked frame pair measures it), not one
+  /// pair's tracking error carried forward or a constant-velocity guess.
+  bool translation_inertial = false;
 };
 
 /// Per-frame report of the estimators.

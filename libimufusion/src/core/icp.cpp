@@ -3,6 +3,7 @@
 #include <limits>
 #include <sstream>
 #include <utility>
+#include <vector>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
@@ -19,6 +20,78 @@ std::string format(double value) {
   out.precision(3);
   out << value;
   return out.str();
+}
+
+// A translation direction is free when the left-out directions move along it: the
+// eigenvectors of sum t t^T over their translation parts t (unit 6-vectors, so a pure
+// translation gives 1, a pure rotation 0) with eigenvalue below one half are fixed.
+Eigen::Matrix3d fixed_translation_without(const std::vector<Eigen::Matrix<double, 6, 1>>& left_out) {
+  Eigen::Matrix3d free = Eigen::Matrix3d::Zero();
+  for (const auto& u : left_out) free += u.tail<3>() * u.tail<3>().transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(free);
+  Eigen::Matrix3d fixed = Eigen::Matrix3d::Zero();
+  for (int i = 0; i < 3; ++i)
+    if (eig.eigenvalues()(i) < 0.5) fixed += eig.eigenvectors().col(i) * eig.eigenvectors().col(i).transpose();
+  return fixed;
+}
+
+// The seed gate (IcpConfig::seed_sigma_rotation): along the weakly constrained singular
+// directions of the last step's AtA, ICP's motion from the initial pose must stay within the
+// combined uncertainty of the initial pose and of ICP itself (r / sum(w) / sigma_i); the
+// directions beyond it are moved back to the initial pose and the result becomes partial.
+void gate_against_seed(const NormalEquations& eq, const IcpConfig& config,
+                       const Eigen::Isometry3d& T_init, IcpResult& result) {
+  const Eigen::JacobiSVD<Eigen::Matrix<double, 6, 6>> svd(eq.AtA, Eigen::ComputeFullU);
+  const auto& s = svd.singularValues();
+  const Eigen::Matrix<double, 6, 6>& U = svd.matrixU();
+  const Eigen::Isometry3d delta = result.T_ref_cur * T_init.inverse();
+  Eigen::Matrix<double, 6, 1> xi;
+  const Eigen::AngleAxisd aa(delta.linear());
+  xi.head<3>() = aa.angle() * aa.axis();
+  xi.tail<3>() = delta.translation();
+  const double sr2 = config.seed_sigma_rotation * config.seed_sigma_rotation;
+  const double st2 = config.seed_sigma_translation * config.seed_sigma_translation;
+  std::vector<Eigen::Matrix<double, 6, 1>> left_out;
+  Eigen::Matrix<double, 6, 1> removed = Eigen::Matrix<double, 6, 1>::Zero();
+  double worst = 0, worst_kappa = 0;
+  for (int i = 0; i < 6; ++i) {
+    const double kappa = s(i) > 0 ? s(0) / s(i) : std::numeric_limits<double>::infinity();
+    const Eigen::Matrix<double, 6, 1> u = U.col(i);
+    if (kappa > config.reliability.max_condition) {  // already kept at the seed, partial or not
+      left_out.push_back(u);
+      continue;
+    }
+    if (!(kappa > config.seed_gate_condition)) continue;
+    const double var = u.head<3>().squaredNorm() * sr2 + u.tail<3>().squaredNorm() * st2 +
+                       result.quality.residual_per_weight / s(i);
+    const double move = u.dot(xi);
+    const double sigmas = std::abs(move) / std::sqrt(var);
+    if (sigmas > worst) {
+      worst = sigmas;
+      worst_kappa = kappa;
+    }
+    if (sigmas > config.seed_gate_sigmas) {
+      left_out.push_back(u);
+      removed += u * move;
+      ++result.quality.seed_gated_directions;
+    }
+  }
+  result.quality.seed_disagreement = worst;
+  if (result.quality.seed_gated_directions == 0) return;
+  const int constrained = 6 - static_cast<int>(left_out.size());
+  const Eigen::Matrix<double, 6, 1> kept = xi - removed;
+  result.T_ref_cur = icp_increment(kept) * T_init;
+  result.quality.constrained_directions = constrained;
+  const bool was_reliable = result.reliable;
+  result.reliable = false;
+  result.partial = constrained >= config.min_constrained_directions;
+  result.fixed_translation = result.partial ? fixed_translation_without(left_out) : Eigen::Matrix3d::Zero();
+  std::string why = "moved " + format(worst) + " sigma from the initial pose along a direction with kappa " +
+                    format(worst_kappa);
+  if (!was_reliable) why = result.reason + "; " + why;
+  result.reason = why + (result.partial ? "; " + std::to_string(constrained) +
+                                              " of 6 directions from ICP, the rest from the initial pose"
+                                        : std::string());
 }
 
 }  // namespace
@@ -49,6 +122,15 @@ Status IcpConfig::validate(int levels) const {
   }
   if (min_constrained_directions < 1 || min_constrained_directions > 6)
     return bad("min_constrained_directions must be 1..6, got " + std::to_string(min_constrained_directions));
+  if (!(seed_sigma_rotation >= 0 && std::isfinite(seed_sigma_rotation) && seed_sigma_translation >= 0 &&
+        std::isfinite(seed_sigma_translation)))
+    return bad("seed sigmas must be finite and non-negative");
+  if (!(seed_gate_condition >= 1 && std::isfinite(seed_gate_condition)))
+    return bad("seed_gate_condition must be at least 1, got " + format(seed_gate_condition));
+  if (!(seed_gate_sigmas > 0 && std::isfinite(seed_gate_sigmas)))
+    return bad("seed_gate_sigmas must be positive, got " + format(seed_gate_sigmas));
+  if (!(seed_gate_hold_sigmas > 0 && seed_gate_hold_sigmas <= seed_gate_sigmas))
+    return bad("seed_gate_hold_sigmas must be in (0, seed_gate_sigmas], got " + format(seed_gate_hold_sigmas));
   return {};
 }
 
@@ -72,15 +154,9 @@ IcpStep solve_icp_step(const NormalEquations& eq, double max_condition) {
       step.x += U.col(i) * (U.col(i).dot(eq.Atb) / s(i));
       ++step.constrained_directions;
     }
-    // A translation direction is free when the left-out directions move along it: the
-    // eigenvectors of sum t t^T over their translation parts t (unit 6-vectors, so a pure
-    // translation gives 1, a pure rotation 0) with eigenvalue below one half are fixed.
-    Eigen::Matrix3d free = Eigen::Matrix3d::Zero();
-    for (int i = step.constrained_directions; i < 6; ++i) free += U.col(i).tail<3>() * U.col(i).tail<3>().transpose();
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(free);
-    for (int i = 0; i < 3; ++i)
-      if (eig.eigenvalues()(i) < 0.5)
-        step.fixed_translation += eig.eigenvectors().col(i) * eig.eigenvectors().col(i).transpose();
+    std::vector<Eigen::Matrix<double, 6, 1>> left_out;
+    for (int i = step.constrained_directions; i < 6; ++i) left_out.push_back(U.col(i));
+    step.fixed_translation = fixed_translation_without(left_out);
   } else {
     step.x = svd.solve(eq.Atb);
     step.constrained_directions = 6;
@@ -139,6 +215,7 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
   int total = 0;
   bool any_step = false;
   int finest_run = levels;
+  NormalEquations last_eq;
   for (int level = levels - 1; level >= 0; --level) {
     // Keep one iteration for every finer level, so a small budget is spent at full resolution.
     const int budget = config.max_total_iterations - total - level;
@@ -163,6 +240,7 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
       q.residual_per_weight = eq->weight_sum > 0 ? step.residual / eq->weight_sum : 0;
       q.constrained_directions = step.constrained_directions;
       last_fixed = step.fixed_translation;
+      last_eq = *eq;
       ++total;
       finest_run = level;
       if (!step.solvable) {
@@ -206,6 +284,9 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
                        " of 6 directions from ICP, the rest from the initial pose";
     }
   }
+  if ((result.reliable || result.partial) && config.keep_seed_in_degenerate_directions &&
+      (config.seed_sigma_rotation > 0 || config.seed_sigma_translation > 0))
+    gate_against_seed(last_eq, config, T_ref_cur_init, result);
   return result;
 }
 

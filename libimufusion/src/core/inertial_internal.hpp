@@ -203,7 +203,12 @@ class VelocityFilter {
   struct Propagation {
     Eigen::Vector3d velocity_b = Eigen::Vector3d::Zero();
     Eigen::Vector3d delta_p = Eigen::Vector3d::Zero();  // IMU point displacement, world, m
+    double delta_p_sigma = 0;                           // its 1 sigma per axis, m
     bool used_accelerometer = false;
+    /// The accelerometer propagated a velocity known at least twice as well as one tracked
+    /// frame pair measures it (four pairs' worth): an estimate independent of the next frame's
+    /// tracking, not one pair's error carried forward.
+    bool settled = false;
   };
   /// The motion over dt from the current velocity; the integration (specific force rotated into
   /// the world) is used when the model is the accelerometer, gravity is ready and `integration`

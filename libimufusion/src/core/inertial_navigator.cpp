@@ -168,6 +168,11 @@ MotionPrediction InertialNavigator::predict(double ta, double tb) const {
                                                       s.R_camera_imu.transpose())
                                     : Eigen::Matrix3d::Identity();
   out.T_a_b.linear() = R_a_b;
+  if (out.rotation_from_imu) {
+    const double dt = tb - ta;
+    const double bias_var = s.bias.covariance().trace() / 3.0;
+    out.rotation_sigma = std::sqrt(s.config.gyro_noise_density * s.config.gyro_noise_density * dt + bias_var * dt * dt);
+  }
   if (s.config.translation != TranslationModel::kNone && continues &&
       s.velocity.has_velocity()) {
     const inertial::VelocityFilter::Propagation prop =
@@ -176,6 +181,8 @@ MotionPrediction InertialNavigator::predict(double ta, double tb) const {
     out.T_a_b.translation() =
         s.lever_arm + R_world_camera_a.transpose() * prop.delta_p - R_a_b * s.lever_arm;
     out.translation_predicted = true;
+    out.translation_sigma = prop.delta_p_sigma;
+    out.translation_inertial = prop.settled;
   }
   return out;
 }

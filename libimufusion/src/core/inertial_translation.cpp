@@ -55,6 +55,12 @@ VelocityFilter::Propagation VelocityFilter::propagate(double dt,
     out.velocity_b = v_;
     out.delta_p = v_ * dt;
   }
+  // The velocity's uncertainty over dt, and the random walk's: integral of a Wiener process,
+  // variance q^2 dt^3 / 3.
+  const double q = out.used_accelerometer ? accel_noise_ : cv_noise_;
+  out.delta_p_sigma = std::sqrt(P_ * dt * dt + q * q * dt * dt * dt / 3.0);
+  const double pair_var = 2.0 * position_sigma_ * position_sigma_ / (dt * dt);
+  out.settled = out.used_accelerometer && initialized_ && 4.0 * P_ <= pair_var;
   return out;
 }
 

@@ -102,6 +102,9 @@ struct Reconstructor::Impl {
   std::deque<std::pair<std::size_t, DepthImage>> lost_depth;
   Eigen::Isometry3d T_world_reference = Eigen::Isometry3d::Identity();  // pose of the raycast
   bool has_reference = false;
+  // The last tracked frame's seed gate moved a direction back to the prediction: the next
+  // frame is gated at seed_gate_hold_sigmas.
+  bool seed_gate_holding = false;
 
   Status check_frame(double timestamp, const DepthImage& depth, const ColorImage* rgb) const {
     const Intrinsics& k = config.intrinsics;
@@ -215,6 +218,15 @@ struct Reconstructor::Impl {
     icp.keep_seed_in_degenerate_directions =
         config.partial_icp_with_imu && prediction.rotation_from_imu && prediction.translation_predicted;
     icp.reliability = reliability(depth);
+    // The seed gate, while tracking on an inertial prediction: a lost or recovering frame's
+    // seed carries the whole drift of dead reckoning, not one frame's prediction error, and a
+    // velocity from one or two tracked pairs carries their error into the seed.
+    if (config.seed_gate_with_imu && icp.keep_seed_in_degenerate_directions && !settling &&
+        prediction.translation_inertial) {
+      icp.seed_sigma_rotation = prediction.rotation_sigma;
+      icp.seed_sigma_translation = prediction.translation_sigma;
+      if (seed_gate_holding) icp.seed_gate_sigmas = icp.seed_gate_hold_sigmas;
+    }
     if (settling) {
       icp.max_total_iterations = std::max(icp.max_total_iterations, config.tracking.recovery_icp_iterations);
       icp.converged_rotation = std::max(icp.converged_rotation, config.recovery_converged_rotation);
@@ -346,26 +358,33 @@ struct Reconstructor::Impl {
   // however far dead reckoning has drifted), full six-direction ICP as while lost, until a frame
   // is not reliably placed or was not kept. The correction that remains is then measured at the
   // oldest frame placed, and only the frames before it are re-estimated by the drift model.
-  // Returns that correction; the placed poses are in `placed`, newest first. Leaves the current
-  // frame and the reference to the caller to restore.
-  Result<PendingCorrection> retrack(const PendingCorrection& c, std::vector<Eigen::Isometry3d>& placed) {
+  // Returns that correction and the frames placed (index and pose). Leaves the current frame
+  // and, when `moved_reference`, the reference to the caller to restore.
+  struct Retracked {
+    PendingCorrection correction;
+    std::vector<std::pair<std::size_t, Eigen::Isometry3d>> placed;
+    bool moved_reference = false;
+  };
+  Result<Retracked> retrack(const PendingCorrection& c) {
     // Everything but the kept depth, which only this pass reads.
-    PendingCorrection out{c.anchor, c.index, c.estimate, c.corrected, c.prior, c.fixed, {}};
+    Retracked out{{c.anchor, c.index, c.estimate, c.corrected, c.prior, c.fixed, {}}, {}, false};
+    PendingCorrection& at = out.correction;
     FrameTimings scratch;
     for (auto it = c.depth.rbegin(); it != c.depth.rend(); ++it) {
       const std::size_t i = it->first;
-      if (i + 1 != out.index || i <= c.anchor) break;
+      if (i + 1 != at.index || i <= c.anchor) break;
       const Eigen::Isometry3d& dead = trajectory[i].T_world_camera;
-      const Eigen::Isometry3d seed = out.corrected * out.estimate.inverse() * dead;
+      const Eigen::Isometry3d seed = at.corrected * at.estimate.inverse() * dead;
       IMUFUSION_RETURN_IF_ERROR(preprocess(it->second, nullptr, scratch));
+      out.moved_reference = true;
       IMUFUSION_RETURN_IF_ERROR(update_reference(seed, scratch));
       auto icp = align(it->second, seed, MotionPrediction{}, true, scratch);
       if (!icp) return icp.error();
       if (!icp->reliable || !icp->quality.converged) break;
-      out.index = i;
-      out.estimate = dead;
-      out.corrected = T_world_reference * icp->T_ref_cur;
-      placed.push_back(out.corrected);
+      at.index = i;
+      at.estimate = dead;
+      at.corrected = T_world_reference * icp->T_ref_cur;
+      out.placed.emplace_back(i, at.corrected);
     }
     return out;
   }
@@ -519,6 +538,7 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
     r.icp_ran = true;
     r.icp = *icp;
     decision = m.machine.step(icp->reliable, icp->quality.converged, icp->partial, partial_may_fuse);
+    m.seed_gate_holding = decision.status == TrackingStatus::kTracking && icp->quality.seed_gated_directions > 0;
     const bool icp_pose = decision.source == PoseSource::kIcp || decision.source == PoseSource::kIcpPartial;
     r.T_world_camera = icp_pose ? T_world_icp : T_world_seed;
     // A relocalized frame's pose did not come from the motion since the previous frame.
@@ -558,14 +578,13 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
   m.trajectory.push_back({timestamp, r.T_world_camera});
   if (decision.recovered && m.pending) {
     const auto t1 = Clock::now();
-    std::vector<Eigen::Isometry3d> placed;
-    auto correction = m.retrack(*m.pending, placed);
-    if (!correction) return correction.error();
+    auto retracked = m.retrack(*m.pending);
+    if (!retracked) return retracked.error();
     // Back to this frame's reference for the next frame.
-    if (!m.pending->depth.empty()) IMUFUSION_RETURN_IF_ERROR(m.update_reference(r.T_world_camera, r.timings));
-    for (std::size_t k = 0; k < placed.size(); ++k) m.trajectory[m.pending->index - 1 - k].T_world_camera = placed[k];
-    r.retracked = placed.size();
-    m.correct_lost_stretch(*correction);
+    if (retracked->moved_reference) IMUFUSION_RETURN_IF_ERROR(m.update_reference(r.T_world_camera, r.timings));
+    for (const auto& [index, pose] : retracked->placed) m.trajectory[index].T_world_camera = pose;
+    r.retracked = retracked->placed.size();
+    m.correct_lost_stretch(retracked->correction);
     m.pending.reset();
     r.timings.retrack_ms = ms_since(t1);
   }
@@ -658,6 +677,7 @@ Status Reconstructor::reset() {
   if (m.navigator) m.navigator->reset();
   m.trajectory.clear();
   m.has_reference = false;
+  m.seed_gate_holding = false;
   m.field_current = false;
   m.pending.reset();
   m.partial_fixed.clear();
