@@ -67,7 +67,7 @@ struct ReconstructorConfig {
   /// beyond seed_gate_sigmas keeps the prediction (icp_partial, frames.csv imu_disagreement), and
   /// the frames after it are checked at seed_gate_hold_sigmas until one agrees again. Off by
   /// default: on the synthetic wall scans it halves a slide that full ICP fuses (seed 214: 71 ->
-  /// 23 mm) and leaves 25 of 29 scans as they were, but on the TUM fr1_xyz recording the
+  /// 23 mm) and leaves 26 of 29 scans as they were, but on the TUM fr1_xyz recording the
   /// prediction's sigmas understate its error (disagreements of 5-14 sigma where ICP tracks), the
   /// gate fires on most frames and the scan is lost (bench/README.md).
   bool seed_gate_with_imu = false;
