@@ -8,6 +8,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 
+#include "core/inertial_internal.hpp"
 #include "imufusion/icp.hpp"
 
 namespace imufusion {
@@ -35,6 +36,11 @@ Eigen::Matrix3d fixed_translation_without(const std::vector<Eigen::Matrix<double
   return fixed;
 }
 
+// The end of a partial result's reason.
+std::string partial_reason(int constrained) {
+  return "; " + std::to_string(constrained) + " of 6 directions from ICP, the rest from the initial pose";
+}
+
 // The seed gate (IcpConfig::seed_sigma_rotation): along the weakly constrained singular
 // directions of the last step's AtA, ICP's motion from the initial pose must stay within the
 // combined uncertainty of the initial pose and of ICP itself (r / sum(w) / sigma_i); the
@@ -46,9 +52,7 @@ void gate_against_seed(const NormalEquations& eq, const IcpConfig& config,
   const Eigen::Matrix<double, 6, 6>& U = svd.matrixU();
   const Eigen::Isometry3d delta = result.T_ref_cur * T_init.inverse();
   Eigen::Matrix<double, 6, 1> xi;
-  const Eigen::AngleAxisd aa(delta.linear());
-  xi.head<3>() = aa.angle() * aa.axis();
-  xi.tail<3>() = delta.translation();
+  xi << inertial::log_so3(delta.linear()), delta.translation();
   const double sr2 = config.seed_sigma_rotation * config.seed_sigma_rotation;
   const double st2 = config.seed_sigma_translation * config.seed_sigma_translation;
   std::vector<Eigen::Matrix<double, 6, 1>> left_out;
@@ -89,9 +93,7 @@ void gate_against_seed(const NormalEquations& eq, const IcpConfig& config,
   std::string why = "moved " + format(worst) + " sigma from the initial pose along a direction with kappa " +
                     format(worst_kappa);
   if (!was_reliable) why = result.reason + "; " + why;
-  result.reason = why + (result.partial ? "; " + std::to_string(constrained) +
-                                              " of 6 directions from ICP, the rest from the initial pose"
-                                        : std::string());
+  result.reason = why + (result.partial ? partial_reason(constrained) : std::string());
 }
 
 }  // namespace
@@ -280,8 +282,7 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
     if (judge_icp(result.quality, t, nullptr)) {
       result.partial = true;
       result.fixed_translation = last_fixed;
-      result.reason += "; " + std::to_string(result.quality.constrained_directions) +
-                       " of 6 directions from ICP, the rest from the initial pose";
+      result.reason += partial_reason(result.quality.constrained_directions);
     }
   }
   if ((result.reliable || result.partial) && config.keep_seed_in_degenerate_directions &&

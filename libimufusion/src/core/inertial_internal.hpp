@@ -231,6 +231,8 @@ class VelocityFilter {
   void reset();
 
  private:
+  /// Variance of a velocity measured from two tracked positions dt apart, (m/s)^2 per axis.
+  double pair_variance(double dt) const { return 2.0 * position_sigma_ * position_sigma_ / (dt * dt); }
   /// The filter's part of step(): propagation and, for a reliable pair, the measurement update.
   void update_velocity(double dt, const Eigen::Vector3d& p_a, const Eigen::Vector3d& p_b, bool reliable,
                        const ImuIntegration* integration);

@@ -59,8 +59,7 @@ VelocityFilter::Propagation VelocityFilter::propagate(double dt,
   // variance q^2 dt^3 / 3.
   const double q = out.used_accelerometer ? accel_noise_ : cv_noise_;
   out.delta_p_sigma = std::sqrt(P_ * dt * dt + q * q * dt * dt * dt / 3.0);
-  const double pair_var = 2.0 * position_sigma_ * position_sigma_ / (dt * dt);
-  out.settled = out.used_accelerometer && initialized_ && 4.0 * P_ <= pair_var;
+  out.settled = out.used_accelerometer && initialized_ && 4.0 * P_ <= pair_variance(dt);
   return out;
 }
 
@@ -74,8 +73,7 @@ void VelocityFilter::step(double dt, const Eigen::Vector3d& p_a, const Eigen::Ve
 
 void VelocityFilter::update_velocity(double dt, const Eigen::Vector3d& p_a, const Eigen::Vector3d& p_b,
                                      bool reliable, const ImuIntegration* integration) {
-  // Variance of a velocity from two positions dt apart.
-  const double measurement_var = 2.0 * position_sigma_ * position_sigma_ / (dt * dt);
+  const double measurement_var = pair_variance(dt);
   const Eigen::Vector3d mean_velocity = (p_b - p_a) / dt;
   if (!initialized_) {
     if (reliable) {
