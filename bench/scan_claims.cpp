@@ -4,7 +4,8 @@
 //
 //   scan_claims [--scenes room,wall,fast] [--seeds 101,102,103] [--size WxH] [--frames N]
 //               [--sequence DIR [--sequence-frames N]] [--settings imu-1,imu-2,icp-10,icp-30]
-//               [--retrack-lost-frames N] [--max-condition K] [--seed-gate SIGMAS] [--work DIR]
+//               [--retrack-lost-frames N] [--max-condition K] [--seed-gate SIGMAS]
+//               [--partial-move-sigma M] [--work DIR]
 //
 // Settings compared, per scan:
 //   imu-1   gyro seed, at most 1 Gauss-Newton step per frame (the paper's IMU setting)
@@ -62,6 +63,7 @@ struct Options {
   std::vector<std::string> settings = {"imu-1", "imu-2", "icp-10", "icp-30"};
   int retrack_lost_frames = ReconstructorConfig{}.retrack_lost_frames;  // 0: no backward placement
   double max_condition = IcpReliabilityThresholds{}.max_condition;     // the reliability test's kappa
+  double partial_move_sigma = ReconstructorConfig{}.partial_move_sigma;
   double seed_gate = 0;  // > 0: ReconstructorConfig::seed_gate_with_imu at this IcpConfig::seed_gate_sigmas
 };
 
@@ -93,6 +95,7 @@ bool parse(int argc, char** argv, Options& opt) {
     else if (a == "--retrack-lost-frames") opt.retrack_lost_frames = std::atoi(v.c_str());
     else if (a == "--max-condition") opt.max_condition = std::atof(v.c_str());
     else if (a == "--seed-gate") opt.seed_gate = std::atof(v.c_str());
+    else if (a == "--partial-move-sigma") opt.partial_move_sigma = std::atof(v.c_str());
     else if (a == "--settings") opt.settings = split(v);
     else return false;
   }
@@ -182,6 +185,7 @@ Result<Loaded> load(const fs::path& dir, std::string label, long max_frames) {
 void run_setting(const Loaded& seq, const Setting& setting, const Options& opt) {
   ReconstructorConfig c;
   c.retrack_lost_frames = opt.retrack_lost_frames;
+  c.partial_move_sigma = opt.partial_move_sigma;
   c.icp.reliability.max_condition = opt.max_condition;
   if (opt.seed_gate > 0) {
     c.seed_gate_with_imu = true;
@@ -236,7 +240,8 @@ int main(int argc, char** argv) {
   if (!parse(argc, argv, opt)) {
     std::cerr << "usage: scan_claims [--scenes room,wall,fast] [--seeds 101,102] [--size WxH] [--frames N]\n"
                  "                   [--sequence DIR [--sequence-frames N]] [--settings imu-1,imu-2,icp-10,icp-30]\n"
-                 "                   [--retrack-lost-frames N] [--max-condition K] [--seed-gate SIGMAS] [--work DIR]\n";
+                 "                   [--retrack-lost-frames N] [--max-condition K] [--seed-gate SIGMAS]\n"
+                 "                   [--partial-move-sigma M] [--work DIR]\n";
     return 2;
   }
   std::printf("| scan | setting | ATE mm | lost | recovering | recoveries | frames to recover | placed backward | median it | mean it | all tracking after the stretch | fps |\n");

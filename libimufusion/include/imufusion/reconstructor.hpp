@@ -114,6 +114,13 @@ struct ReconstructorConfig {
   /// Their depth is kept while lost: the newest `retrack_lost_frames` frames (0: none, no
   /// backward placement), at 2 bytes per pixel (150 frames of 640x480: 92 MB).
   int retrack_lost_frames = 150;
+  /// After a long loss (the dead-reckoned seed beyond ICP's reach), a frame that partial ICP
+  /// places along directions the frame before it did not fix (the camera finds the model again
+  /// along a wall) moves its pose by the drift accumulated there. The re-estimation takes that
+  /// move as a measurement of the drift, with this sigma per axis (m), as long as it agrees with
+  /// the error the recovery measured (a partial alignment that settled on the wrong stretch of
+  /// the model does not); 0: such frames count as dead-reckoned.
+  double partial_move_sigma = 0.01;
   DeviceOptions device;
   /// Convergence (per-step rotation, rad, and translation, m) that counts while lost or
   /// recovering: an update below it means ICP has settled onto the model (1 mm / 0.06 deg per
@@ -207,9 +214,10 @@ class Reconstructor {
   /// bias error (linear in time) plus the gyro's noise (a random walk); it tilts the gravity
   /// the accelerometer model removes (drift cubic in time), to which a velocity error (linear)
   /// and an accelerometer bias error (quadratic) add. Along the directions partial ICP fixed in
-  /// a frame (the distance to a bare wall), the drift starts again from zero there
-  /// (drift_corrections in src/core/relocalizer.hpp). FrameResult keeps the pose each frame had
-  /// when it was tracked.
+  /// a frame (the distance to a bare wall), the drift starts again from zero there; after a long
+  /// loss, a frame's move along directions newly fixed measures the drift before it
+  /// (ReconstructorConfig::partial_move_sigma; drift_corrections in src/core/relocalizer.hpp).
+  /// FrameResult keeps the pose each frame had when it was tracked.
   const Trajectory& trajectory() const;
   const ReconstructorConfig& config() const;
   const DeviceInfo& device() const;

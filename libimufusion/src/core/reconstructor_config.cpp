@@ -38,6 +38,8 @@ Status ReconstructorConfig::validate() const {
     return bad("relocalization_max_radius must be 0..10 m, got " + std::to_string(relocalization_max_radius));
   if (retrack_lost_frames < 0 || retrack_lost_frames > 100000)
     return bad("retrack_lost_frames must be 0..100000, got " + std::to_string(retrack_lost_frames));
+  if (!(partial_move_sigma >= 0) || !std::isfinite(partial_move_sigma))
+    return bad("partial_move_sigma must be finite and >= 0, got " + std::to_string(partial_move_sigma));
   for (const double scale : {drift_gyro_bias_sigma_scale, drift_gravity_sigma_scale})
     if (!(scale > 0) || !std::isfinite(scale))
       return bad("drift sigma scales must be finite and positive, got " + std::to_string(scale));

@@ -5,6 +5,7 @@
 #include <limits>
 #include <unordered_set>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <Eigen/QR>
 
@@ -204,12 +205,21 @@ std::vector<StretchCorrection> drift_corrections(const std::vector<StretchFrame>
     previous = end;
   }
 
-  // One interval of the error dynamics, on any linear function of z (3 x n maps) or on values
-  // (3 x 1): the rotation error moves by the bias error and the noise increment, the
-  // acceleration is constant at its midpoint value.
+  // A frame placed with a measured move (moved_sigma > 0) moved the estimate: the error drops
+  // by the move there, and its fixed directions are not taken as exact. The move is a
+  // measurement of the error just before it, taken only while it agrees with the rest (below).
+  const auto measured_move = [&](std::size_t k) { return frames[k].moved_sigma > 0; };
+  const auto reset = [&](std::size_t k) -> Eigen::Matrix3d {
+    return measured_move(k) ? Eigen::Matrix3d::Zero() : frames[k].fixed;
+  };
+  std::vector<char> taken(frames.size(), 0);
+
+  // One interval of the error dynamics, on any affine function of z (3 x (n + 1) maps, the last
+  // column the constant term) or on values (3 x 1): the rotation error moves by the bias error
+  // and the noise increment, the acceleration is constant at its midpoint value.
   const Eigen::Matrix3d g_cross = inertial::skew(prior.gravity_world);
   const auto run = [&](auto& rotation, auto& position, auto& velocity, const auto& bias, const auto& accel_bias,
-                       const auto& gravity, const auto& noise_of, auto&& at_frame) {
+                       const auto& gravity, const auto& noise_of, auto&& at_move, auto&& at_frame) {
     double last = 0;
     for (std::size_t k = 0; k < intervals; ++k) {
       const double end = std::max(last, interval_end(k));
@@ -222,32 +232,92 @@ std::vector<StretchCorrection> drift_corrections(const std::vector<StretchFrame>
       velocity += acceleration * h;
       rotation += step;
       if (k < frames.size()) {
-        position = (Eigen::Matrix3d::Identity() - frames[k].fixed) * position;
+        if (measured_move(k)) at_move(k, position);
+        position = (Eigen::Matrix3d::Identity() - reset(k)) * position;
         at_frame(k);
       }
       last = end;
     }
   };
+  const Eigen::Index constant = n;
   const auto unknown = [&](Eigen::Index first) {
-    Eigen::MatrixXd m = Eigen::MatrixXd::Zero(3, n);
+    Eigen::MatrixXd m = Eigen::MatrixXd::Zero(3, n + 1);
     m.middleCols<3>(first).setIdentity();
     return m;
   };
 
-  // The end error as a function of z: H (6 x n).
-  Eigen::MatrixXd rotation = Eigen::MatrixXd::Zero(3, n), position = Eigen::MatrixXd::Zero(3, n),
-                  velocity = unknown(kVelocity);
-  run(rotation, position, velocity, unknown(kGyroBias), unknown(kAccelBias), unknown(kGravity),
-      [&](std::size_t k) { return unknown(noise_index(k)); }, [](std::size_t) {});
-  Eigen::MatrixXd H(6, n);
-  H << rotation, position;
-  Eigen::Matrix<double, 6, 1> y;
-  y << end_rotation, end_translation;
-  Eigen::MatrixXd cross = variance.asDiagonal() * H.transpose();  // Sigma H^T
-  if (accelerometer)
-    cross.middleRows<6>(kGravity) = prior.gravity_bias_covariance * H.transpose().middleRows<6>(kGravity);
-  const Eigen::Matrix<double, 6, 6> S = H * cross;
-  const Eigen::VectorXd z = cross * S.completeOrthogonalDecomposition().solve(y);
+  // The directions frame k fixed that the frame before it did not: more than 45 degrees from
+  // the span the frame before fixed (the anchor fixed all).
+  const auto newly_fixed = [&](std::size_t k) -> Eigen::Matrix3d {
+    const Eigen::Matrix3d& P = frames[k].fixed;
+    const Eigen::Matrix3d before = k == 0 ? Eigen::Matrix3d::Identity() : frames[k - 1].fixed;
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(P - P * before * P);
+    Eigen::Matrix3d N = Eigen::Matrix3d::Zero();
+    for (int i = 0; i < 3; ++i)
+      if (eig.eigenvalues()(i) > 0.5) N += eig.eigenvectors().col(i) * eig.eigenvectors().col(i).transpose();
+    return N;
+  };
+
+  // The conditional mean of z given the end error (6 rows, exact) and the moves taken (3 rows
+  // each), with the chi-square of those measurements and its degrees of freedom.
+  struct Fit {
+    Eigen::VectorXd z;
+    double chi2 = 0;
+    Eigen::Index dof = 0;
+  };
+  const auto fit = [&]() {
+    const auto moves = static_cast<Eigen::Index>(std::count(taken.begin(), taken.end(), 1));
+    const Eigen::Index m = 6 + 3 * moves;
+    Eigen::MatrixXd A = Eigen::MatrixXd::Zero(m, n + 1);  // the measurements, affine in z
+    Eigen::VectorXd y = Eigen::VectorXd::Zero(m);
+    Eigen::MatrixXd noise = Eigen::MatrixXd::Zero(m, m);
+    Eigen::MatrixXd rotation = Eigen::MatrixXd::Zero(3, n + 1), position = Eigen::MatrixXd::Zero(3, n + 1),
+                    velocity = unknown(kVelocity);
+    Eigen::Index row = 6;
+    run(rotation, position, velocity, unknown(kGyroBias), unknown(kAccelBias), unknown(kGravity),
+        [&](std::size_t k) { return unknown(noise_index(k)); },
+        [&](std::size_t k, Eigen::MatrixXd& p) {
+          if (taken[k]) {
+            const Eigen::Matrix3d N = newly_fixed(k);
+            A.middleRows<3>(row) = N * p;
+            y.segment<3>(row) = N * frames[k].moved;
+            noise.block<3, 3>(row, row) = N * (frames[k].moved_sigma * frames[k].moved_sigma);
+            row += 3;
+          }
+          p.col(constant) -= frames[k].moved;
+        },
+        [](std::size_t) {});
+    A.topRows<3>() = rotation;
+    A.middleRows<3>(3) = position;
+    y.head<3>() = end_rotation;
+    y.segment<3>(3) = end_translation;
+    y -= A.col(constant);
+    const Eigen::MatrixXd H = A.leftCols(n);
+    Eigen::MatrixXd cross = variance.asDiagonal() * H.transpose();  // Sigma H^T
+    if (accelerometer)
+      cross.middleRows<6>(kGravity) = prior.gravity_bias_covariance * H.transpose().middleRows<6>(kGravity);
+    const Eigen::MatrixXd S = H * cross + noise;
+    const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(S);
+    const Eigen::VectorXd w = cod.solve(y);
+    return Fit{cross * w, y.dot(w), cod.rank()};
+  };
+
+  // The moves are taken in time order, each while the chi-square grows by no more than its
+  // 99.9th percentile for the degrees of freedom the move adds: a partial alignment that
+  // settled on the wrong stretch of the model contradicts the end error and is left out.
+  Fit best = fit();
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    if (!measured_move(k) || newly_fixed(k).trace() < 0.5) continue;
+    taken[k] = 1;
+    Fit trial = fit();
+    static constexpr double kChi2[] = {10.83, 13.82, 16.27};  // 99.9th percentile, 1-3 dof
+    const double limit = kChi2[std::clamp<Eigen::Index>(trial.dof - best.dof, 1, 3) - 1];
+    if (trial.chi2 - best.chi2 <= limit)
+      best = std::move(trial);
+    else
+      taken[k] = 0;
+  }
+  const Eigen::VectorXd& z = best.z;
 
   // The frames' errors at the conditional mean of z.
   Eigen::Vector3d r = Eigen::Vector3d::Zero(), p = Eigen::Vector3d::Zero();
@@ -255,6 +325,7 @@ std::vector<StretchCorrection> drift_corrections(const std::vector<StretchFrame>
   run(r, p, v, Eigen::Vector3d(z.segment<3>(kGyroBias)), Eigen::Vector3d(z.segment<3>(kAccelBias)),
       Eigen::Vector3d(z.segment<3>(kGravity)),
       [&](std::size_t k) -> Eigen::Vector3d { return z.segment<3>(noise_index(k)); },
+      [&](std::size_t k, Eigen::Vector3d& position) { position -= frames[k].moved; },
       [&](std::size_t k) { out[k] = StretchCorrection{p, r}; });
   return out;
 }

@@ -82,6 +82,11 @@ struct StretchFrame {
   double s = 0;
   Eigen::Matrix3d fixed = Eigen::Matrix3d::Zero();
   Eigen::Matrix3d R_world_camera = Eigen::Matrix3d::Identity();
+  // A frame placed from a seed that may lie beyond ICP's reach: how far ICP moved it from where
+  // dead reckoning put it (world, metres), and that move's sigma per axis. A zero sigma: the
+  // fixed directions are exact (the drift restarts there) and no move is recorded.
+  Eigen::Vector3d moved = Eigen::Vector3d::Zero();
+  double moved_sigma = 0;
 };
 
 /// Truth - estimate of a dead-reckoned pose (world): truth = Exp(rotation) * estimate, position
@@ -105,6 +110,13 @@ struct StretchCorrection {
 ///   - Where ICP placed a frame partly (a bare wall fixes the distance to it), its position was
 ///     right along the fixed directions: the error there starts again from zero while the
 ///     velocity and bias errors run on.
+///   - Where it placed a frame with a recorded move (`moved_sigma` > 0: late in a long loss),
+///     the error drops by the move. Along the directions the frame fixed that the frame before
+///     it did not (more than 45 degrees from their span), the move measures the error just
+///     before it, with `moved_sigma`. Such measurements are taken in time order while each
+///     raises the measurements' chi-square by no more than its 99.9th percentile for the degrees
+///     of freedom it adds: one that contradicts the end error (an alignment that settled on
+///     the wrong stretch of the model) is left out, its move still applied.
 /// The interval before a frame takes that frame's orientation, the last interval the last
 /// frame's. The estimate's linear spread when a source's sigmas are all zero: with no rotation
 /// source the rotation error grows linearly, with no translation source the velocity error takes

@@ -85,17 +85,23 @@ struct Reconstructor::Impl {
   };
   // The first frame that ICP placed after a loss, and where dead reckoning had put it: once the
   // recovery is confirmed, the lost stretch back to `anchor` is corrected by the difference.
+  struct PartialFrame {
+    std::size_t index = 0;
+    Eigen::Matrix3d fixed;  // world translation directions partial ICP fixed
+    Eigen::Vector3d moved;  // the frame's move from its dead-reckoned seed (world)
+    bool measured = false;  // after a long loss: the move is a measurement, not exact
+  };
   struct PendingCorrection {
     std::size_t anchor = 0, index = 0;
     Eigen::Isometry3d estimate, corrected;
     DriftPrior prior;
-    std::vector<std::pair<std::size_t, Eigen::Matrix3d>> fixed;
+    std::vector<PartialFrame> fixed;
     std::deque<std::pair<std::size_t, DepthImage>> depth;  // the lost frames kept (see lost_depth)
   };
   std::optional<PendingCorrection> pending;
   // The frames since the last fully constrained one that partial ICP placed, with the world
   // translation directions it fixed.
-  std::vector<std::pair<std::size_t, Eigen::Matrix3d>> partial_fixed;
+  std::vector<PartialFrame> partial_fixed;
   DriftPrior constrained_prior;  // the inertial estimates at the last fully constrained frame
   // The depth of the newest frames since the last fully constrained one (dead-reckoned or
   // partial), at most config.retrack_lost_frames: a recovery places them backward.
@@ -402,8 +408,14 @@ struct Reconstructor::Impl {
       StretchFrame f;
       f.s = trajectory[i].timestamp - t0;
       f.R_world_camera = trajectory[i].T_world_camera.linear();
-      while (fixed != c.fixed.end() && fixed->first < i) ++fixed;
-      if (fixed != c.fixed.end() && fixed->first == i) f.fixed = fixed->second;
+      while (fixed != c.fixed.end() && fixed->index < i) ++fixed;
+      if (fixed != c.fixed.end() && fixed->index == i) {
+        f.fixed = fixed->fixed;
+        if (fixed->measured) {
+          f.moved = fixed->moved;
+          f.moved_sigma = config.partial_move_sigma;
+        }
+      }
       frames.push_back(f);
     }
     const std::vector<StretchCorrection> corrections =
@@ -549,10 +561,12 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
       m.pending = Impl::PendingCorrection{m.last_constrained_index, r.index, T_world_estimate, r.T_world_camera,
                                           m.constrained_prior, m.partial_fixed, std::move(m.lost_depth)};
     if (decision.status == TrackingStatus::kLost) m.pending.reset();
-    // Only while dead reckoning is still within ICP's reach: from a seed further off, partial
-    // ICP may settle on the wrong stretch of the model in the directions it fixes too.
-    if (decision.source == PoseSource::kIcpPartial && !long_loss)
-      m.partial_fixed.emplace_back(r.index, R_world_reference * icp->fixed_translation * R_world_reference.transpose());
+    // Taken as exact only while dead reckoning is still within ICP's reach: from a seed further
+    // off, partial ICP may settle on the wrong stretch of the model in the directions it fixes
+    // too, so there its move is a measurement to be checked (ReconstructorConfig::partial_move_sigma).
+    if (decision.source == PoseSource::kIcpPartial && (!long_loss || m.config.partial_move_sigma > 0))
+      m.partial_fixed.push_back({r.index, R_world_reference * icp->fixed_translation * R_world_reference.transpose(),
+                                 T_world_icp.translation() - T_world_seed.translation(), long_loss});
   }
   if (decision.source == PoseSource::kIcp || decision.source == PoseSource::kInitial) {
     m.last_constrained_time = timestamp;
