@@ -393,6 +393,13 @@ TEST(ReconstructorConfig, RejectsSettingsOutOfRange) {
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.error().message.find("retrack_lost_frames"), std::string::npos);
   c.retrack_lost_frames = 0;
+  c.partial_move_sigma = -0.01;
+  s = c.validate();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("partial_move_sigma"), std::string::npos);
+  c.partial_move_sigma = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(c.validate().ok());
+  c.partial_move_sigma = 0;  // the moves not recorded
   EXPECT_TRUE(c.validate().ok());
   c.initial_pose.translation().x() = std::numeric_limits<double>::infinity();
   EXPECT_FALSE(c.validate().ok());

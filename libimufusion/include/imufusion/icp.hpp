@@ -178,6 +178,10 @@ struct IcpStep {
   /// the orthogonal complement of the translation parts of the directions left out. Identity
   /// when all six are solved, zero when none is.
   Eigen::Matrix3d fixed_translation = Eigen::Matrix3d::Zero();
+  /// AtA's SVD (AtA = U S U^T): singular values, descending, and their directions (U's columns).
+  /// Zero when the system was not finite.
+  Eigen::Matrix<double, 6, 1> singular_values = Eigen::Matrix<double, 6, 1>::Zero();
+  Eigen::Matrix<double, 6, 6> directions = Eigen::Matrix<double, 6, 6>::Zero();
 };
 /// With `max_condition` > 0, x is the truncated-SVD solution: it moves only along singular
 /// directions whose singular value is at least sigma_max / max_condition (zero along the others).

@@ -45,11 +45,10 @@ std::string partial_reason(int constrained) {
 // directions of the last step's AtA, ICP's motion from the initial pose must stay within the
 // combined uncertainty of the initial pose and of ICP itself (r / sum(w) / sigma_i); the
 // directions beyond it are moved back to the initial pose and the result becomes partial.
-void gate_against_seed(const NormalEquations& eq, const IcpConfig& config,
-                       const Eigen::Isometry3d& T_init, IcpResult& result) {
-  const Eigen::JacobiSVD<Eigen::Matrix<double, 6, 6>> svd(eq.AtA, Eigen::ComputeFullU);
-  const auto& s = svd.singularValues();
-  const Eigen::Matrix<double, 6, 6>& U = svd.matrixU();
+void gate_against_seed(const IcpStep& last, const IcpConfig& config, const Eigen::Isometry3d& T_init,
+                       IcpResult& result) {
+  const Eigen::Matrix<double, 6, 1>& s = last.singular_values;
+  const Eigen::Matrix<double, 6, 6>& U = last.directions;
   const Eigen::Isometry3d delta = result.T_ref_cur * T_init.inverse();
   Eigen::Matrix<double, 6, 1> xi;
   xi << inertial::log_so3(delta.linear()), delta.translation();
@@ -144,7 +143,9 @@ IcpStep solve_icp_step(const NormalEquations& eq, double max_condition) {
   }
   const Eigen::JacobiSVD<Eigen::Matrix<double, 6, 6>> svd(eq.AtA,
                                                          Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const auto& s = svd.singularValues();  // descending
+  step.directions = svd.matrixU();
+  for (int i = 0; i < 6; ++i) step.singular_values(i) = svd.singularValues()(i);
+  const Eigen::Matrix<double, 6, 1>& s = step.singular_values;  // descending
   step.condition = s(5) > 0 ? s(0) / s(5) : std::numeric_limits<double>::infinity();
   if (!(s(0) > 0)) return step;
   if (max_condition > 0) {
@@ -217,7 +218,10 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
   int total = 0;
   bool any_step = false;
   int finest_run = levels;
-  NormalEquations last_eq;
+  // The seed gate judges the last step's singular directions: kept only when it may run.
+  const bool seed_gate = config.keep_seed_in_degenerate_directions &&
+                         (config.seed_sigma_rotation > 0 || config.seed_sigma_translation > 0);
+  IcpStep last_step;
   for (int level = levels - 1; level >= 0; --level) {
     // Keep one iteration for every finer level, so a small budget is spent at full resolution.
     const int budget = config.max_total_iterations - total - level;
@@ -242,7 +246,7 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
       q.residual_per_weight = eq->weight_sum > 0 ? step.residual / eq->weight_sum : 0;
       q.constrained_directions = step.constrained_directions;
       last_fixed = step.fixed_translation;
-      last_eq = *eq;
+      if (seed_gate) last_step = step;
       ++total;
       finest_run = level;
       if (!step.solvable) {
@@ -285,9 +289,7 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
       result.reason += partial_reason(result.quality.constrained_directions);
     }
   }
-  if ((result.reliable || result.partial) && config.keep_seed_in_degenerate_directions &&
-      (config.seed_sigma_rotation > 0 || config.seed_sigma_translation > 0))
-    gate_against_seed(last_eq, config, T_ref_cur_init, result);
+  if ((result.reliable || result.partial) && seed_gate) gate_against_seed(last_step, config, T_ref_cur_init, result);
   return result;
 }
 
