@@ -212,7 +212,6 @@ std::vector<StretchCorrection> drift_corrections(const std::vector<StretchFrame>
   const auto reset = [&](std::size_t k) -> Eigen::Matrix3d {
     return measured_move(k) ? Eigen::Matrix3d::Zero() : frames[k].fixed;
   };
-  std::vector<char> taken(frames.size(), 0);
 
   // One interval of the error dynamics, on any affine function of z (3 x (n + 1) maps, the last
   // column the constant term) or on values (3 x 1): the rotation error moves by the bias error
@@ -258,39 +257,56 @@ std::vector<StretchCorrection> drift_corrections(const std::vector<StretchFrame>
     return N;
   };
 
-  // The conditional mean of z given the end error (6 rows, exact) and the moves taken (3 rows
-  // each), with the chi-square of those measurements and its degrees of freedom.
+  // The measurements, affine in z, from one run: the end error (6 rows, exact), then for each
+  // measured move along newly fixed directions (in time order) the error just before it along
+  // them (3 rows). Which moves are taken changes only which rows a fit uses.
+  struct Move {
+    Eigen::MatrixXd A;  // 3 x (n + 1)
+    Eigen::Vector3d y;
+    Eigen::Matrix3d noise;
+  };
+  std::vector<Move> moves;
+  Eigen::MatrixXd end_A(6, n + 1);
+  {
+    Eigen::MatrixXd rotation = Eigen::MatrixXd::Zero(3, n + 1), position = Eigen::MatrixXd::Zero(3, n + 1),
+                    velocity = unknown(kVelocity);
+    run(rotation, position, velocity, unknown(kGyroBias), unknown(kAccelBias), unknown(kGravity),
+        [&](std::size_t k) { return unknown(noise_index(k)); },
+        [&](std::size_t k, Eigen::MatrixXd& p) {
+          const Eigen::Matrix3d N = newly_fixed(k);
+          if (N.trace() >= 0.5)
+            moves.push_back({N * p, N * frames[k].moved, N * (frames[k].moved_sigma * frames[k].moved_sigma)});
+          p.col(constant) -= frames[k].moved;
+        },
+        [](std::size_t) {});
+    end_A << rotation, position;
+  }
+  Eigen::Matrix<double, 6, 1> end_y;
+  end_y << end_rotation, end_translation;
+
+  // The conditional mean of z given the end error and the moves taken, with the chi-square of
+  // those measurements and its degrees of freedom.
   struct Fit {
     Eigen::VectorXd z;
     double chi2 = 0;
     Eigen::Index dof = 0;
   };
+  std::vector<char> taken(moves.size(), 0);
   const auto fit = [&]() {
-    const auto moves = static_cast<Eigen::Index>(std::count(taken.begin(), taken.end(), 1));
-    const Eigen::Index m = 6 + 3 * moves;
-    Eigen::MatrixXd A = Eigen::MatrixXd::Zero(m, n + 1);  // the measurements, affine in z
-    Eigen::VectorXd y = Eigen::VectorXd::Zero(m);
+    const Eigen::Index m = 6 + 3 * static_cast<Eigen::Index>(std::count(taken.begin(), taken.end(), 1));
+    Eigen::MatrixXd A(m, n + 1);
+    Eigen::VectorXd y(m);
     Eigen::MatrixXd noise = Eigen::MatrixXd::Zero(m, m);
-    Eigen::MatrixXd rotation = Eigen::MatrixXd::Zero(3, n + 1), position = Eigen::MatrixXd::Zero(3, n + 1),
-                    velocity = unknown(kVelocity);
+    A.topRows<6>() = end_A;
+    y.head<6>() = end_y;
     Eigen::Index row = 6;
-    run(rotation, position, velocity, unknown(kGyroBias), unknown(kAccelBias), unknown(kGravity),
-        [&](std::size_t k) { return unknown(noise_index(k)); },
-        [&](std::size_t k, Eigen::MatrixXd& p) {
-          if (taken[k]) {
-            const Eigen::Matrix3d N = newly_fixed(k);
-            A.middleRows<3>(row) = N * p;
-            y.segment<3>(row) = N * frames[k].moved;
-            noise.block<3, 3>(row, row) = N * (frames[k].moved_sigma * frames[k].moved_sigma);
-            row += 3;
-          }
-          p.col(constant) -= frames[k].moved;
-        },
-        [](std::size_t) {});
-    A.topRows<3>() = rotation;
-    A.middleRows<3>(3) = position;
-    y.head<3>() = end_rotation;
-    y.segment<3>(3) = end_translation;
+    for (std::size_t j = 0; j < moves.size(); ++j) {
+      if (!taken[j]) continue;
+      A.middleRows<3>(row) = moves[j].A;
+      y.segment<3>(row) = moves[j].y;
+      noise.block<3, 3>(row, row) = moves[j].noise;
+      row += 3;
+    }
     y -= A.col(constant);
     const Eigen::MatrixXd H = A.leftCols(n);
     Eigen::MatrixXd cross = variance.asDiagonal() * H.transpose();  // Sigma H^T
@@ -306,16 +322,15 @@ std::vector<StretchCorrection> drift_corrections(const std::vector<StretchFrame>
   // 99.9th percentile for the degrees of freedom the move adds: a partial alignment that
   // settled on the wrong stretch of the model contradicts the end error and is left out.
   Fit best = fit();
-  for (std::size_t k = 0; k < frames.size(); ++k) {
-    if (!measured_move(k) || newly_fixed(k).trace() < 0.5) continue;
-    taken[k] = 1;
+  for (std::size_t j = 0; j < moves.size(); ++j) {
+    taken[j] = 1;
     Fit trial = fit();
     static constexpr double kChi2[] = {10.83, 13.82, 16.27};  // 99.9th percentile, 1-3 dof
     const double limit = kChi2[std::clamp<Eigen::Index>(trial.dof - best.dof, 1, 3) - 1];
     if (trial.chi2 - best.chi2 <= limit)
       best = std::move(trial);
     else
-      taken[k] = 0;
+      taken[j] = 0;
   }
   const Eigen::VectorXd& z = best.z;
 

@@ -83,14 +83,15 @@ struct Reconstructor::Impl {
     IcpResult icp;
     Eigen::Isometry3d T_world_camera;
   };
-  // The first frame that ICP placed after a loss, and where dead reckoning had put it: once the
-  // recovery is confirmed, the lost stretch back to `anchor` is corrected by the difference.
+  // A frame partial ICP placed since the last fully constrained one.
   struct PartialFrame {
     std::size_t index = 0;
     Eigen::Matrix3d fixed;  // world translation directions partial ICP fixed
     Eigen::Vector3d moved;  // the frame's move from its dead-reckoned seed (world)
     bool measured = false;  // after a long loss: the move is a measurement, not exact
   };
+  // The first frame that ICP placed after a loss, and where dead reckoning had put it: once the
+  // recovery is confirmed, the lost stretch back to `anchor` is corrected by the difference.
   struct PendingCorrection {
     std::size_t anchor = 0, index = 0;
     Eigen::Isometry3d estimate, corrected;
@@ -100,7 +101,7 @@ struct Reconstructor::Impl {
   };
   std::optional<PendingCorrection> pending;
   // The frames since the last fully constrained one that partial ICP placed, with the world
-  // translation directions it fixed.
+  // translation directions it fixed and, after a long loss, its moves.
   std::vector<PartialFrame> partial_fixed;
   DriftPrior constrained_prior;  // the inertial estimates at the last fully constrained frame
   // The depth of the newest frames since the last fully constrained one (dead-reckoned or
