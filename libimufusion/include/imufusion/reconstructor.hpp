@@ -208,7 +208,8 @@ class Reconstructor {
   /// of the frames in between (dead-reckoned or partial, never fused) are re-estimated: the
   /// newest by ICP backward from the recovery while it is reliable
   /// (ReconstructorConfig::retrack_lost_frames), the rest from the correction that remains at
-  /// the oldest frame so placed (its ICP pose against the dead-reckoned one), back to the last
+  /// the oldest frame so placed (its ICP pose against where dead reckoning put it, before any
+  /// move partial ICP made there), back to the last
   /// fully constrained frame: the conditional mean of dead reckoning's errors given that
   /// end error, under the navigator's sigmas when the loss began. The rotation error is the gyro
   /// bias error (linear in time) plus the gyro's noise (a random walk); it tilts the gravity

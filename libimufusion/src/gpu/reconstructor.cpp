@@ -382,6 +382,11 @@ struct Reconstructor::Impl {
       if (i + 1 != at.index || i <= c.anchor) break;
       const Eigen::Isometry3d& dead = trajectory[i].T_world_camera;
       const Eigen::Isometry3d seed = at.corrected * at.estimate.inverse() * dead;
+      // Where dead reckoning put frame i before partial ICP moved it, if it did: the frames
+      // before reach it by dead reckoning alone, so the correction left there is measured from it.
+      Eigen::Isometry3d dead_reckoned = dead;
+      const auto partial = std::find_if(c.fixed.begin(), c.fixed.end(), [&](const PartialFrame& f) { return f.index == i; });
+      if (partial != c.fixed.end()) dead_reckoned.translation() -= partial->moved;
       IMUFUSION_RETURN_IF_ERROR(preprocess(it->second, nullptr, scratch));
       out.moved_reference = true;
       IMUFUSION_RETURN_IF_ERROR(update_reference(seed, scratch));
@@ -389,7 +394,7 @@ struct Reconstructor::Impl {
       if (!icp) return icp.error();
       if (!icp->reliable || !icp->quality.converged) break;
       at.index = i;
-      at.estimate = dead;
+      at.estimate = dead_reckoned;
       at.corrected = T_world_reference * icp->T_ref_cur;
       out.placed.emplace_back(i, at.corrected);
     }
@@ -558,8 +563,12 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
     if (m.navigator)
       m.navigator->observe(previous.timestamp, timestamp, previous.T_world_camera, r.T_world_camera,
                            decision.source == PoseSource::kIcp && !r.relocalized);
+    // The correction is measured from where dead reckoning put the frame (a partial pose's
+    // rotation kept, as in the stretch): the frames before reach it by dead reckoning alone.
+    Eigen::Isometry3d T_world_dead = T_world_estimate;
+    T_world_dead.translation() = T_world_seed.translation();
     if (was_lost && decision.status == TrackingStatus::kRecovering)
-      m.pending = Impl::PendingCorrection{m.last_constrained_index, r.index, T_world_estimate, r.T_world_camera,
+      m.pending = Impl::PendingCorrection{m.last_constrained_index, r.index, T_world_dead, r.T_world_camera,
                                           m.constrained_prior, m.partial_fixed, std::move(m.lost_depth)};
     if (decision.status == TrackingStatus::kLost) m.pending.reset();
     // Taken as exact only while dead reckoning is still within ICP's reach: from a seed further
