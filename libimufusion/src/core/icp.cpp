@@ -144,6 +144,7 @@ IcpStep solve_icp_step(const NormalEquations& eq, double max_condition) {
   const Eigen::JacobiSVD<Eigen::Matrix<double, 6, 6>> svd(eq.AtA,
                                                          Eigen::ComputeFullU | Eigen::ComputeFullV);
   step.directions = svd.matrixU();
+  // Element by element: GCC 12 reports the vectorized whole-vector copy as maybe-uninitialized.
   for (int i = 0; i < 6; ++i) step.singular_values(i) = svd.singularValues()(i);
   const Eigen::Matrix<double, 6, 1>& s = step.singular_values;  // descending
   step.condition = s(5) > 0 ? s(0) / s(5) : std::numeric_limits<double>::infinity();

@@ -90,6 +90,12 @@ struct Reconstructor::Impl {
     Eigen::Vector3d moved;  // the frame's move from its dead-reckoned seed (world)
     bool measured = false;  // after a long loss: the move is a measurement, not exact
   };
+  // Frame `index`'s entry in `frames` (sorted by index), or nullptr when partial ICP did not place it.
+  static const PartialFrame* find_partial(const std::vector<PartialFrame>& frames, std::size_t index) {
+    const auto it = std::lower_bound(frames.begin(), frames.end(), index,
+                                     [](const PartialFrame& f, std::size_t i) { return f.index < i; });
+    return it != frames.end() && it->index == index ? &*it : nullptr;
+  }
   // The first frame that ICP placed after a loss, and where dead reckoning had put it: once the
   // recovery is confirmed, the lost stretch back to `anchor` is corrected by the difference.
   struct PendingCorrection {
@@ -385,8 +391,7 @@ struct Reconstructor::Impl {
       // Where dead reckoning put frame i before partial ICP moved it, if it did: the frames
       // before reach it by dead reckoning alone, so the correction left there is measured from it.
       Eigen::Isometry3d dead_reckoned = dead;
-      const auto partial = std::find_if(c.fixed.begin(), c.fixed.end(), [&](const PartialFrame& f) { return f.index == i; });
-      if (partial != c.fixed.end()) dead_reckoned.translation() -= partial->moved;
+      if (const PartialFrame* partial = find_partial(c.fixed, i)) dead_reckoned.translation() -= partial->moved;
       IMUFUSION_RETURN_IF_ERROR(preprocess(it->second, nullptr, scratch));
       out.moved_reference = true;
       IMUFUSION_RETURN_IF_ERROR(update_reference(seed, scratch));
@@ -409,13 +414,11 @@ struct Reconstructor::Impl {
     const Eigen::Vector3d rotation = inertial::log_so3(c.corrected.linear() * c.estimate.linear().transpose());
     const Eigen::Vector3d translation = c.corrected.translation() - c.estimate.translation();
     std::vector<StretchFrame> frames;
-    auto fixed = c.fixed.begin();
     for (std::size_t i = c.anchor + 1; i < c.index; ++i) {
       StretchFrame f;
       f.s = trajectory[i].timestamp - t0;
       f.R_world_camera = trajectory[i].T_world_camera.linear();
-      while (fixed != c.fixed.end() && fixed->index < i) ++fixed;
-      if (fixed != c.fixed.end() && fixed->index == i) {
+      if (const PartialFrame* fixed = find_partial(c.fixed, i)) {
         f.fixed = fixed->fixed;
         if (fixed->measured) {
           f.moved = fixed->moved;
@@ -563,13 +566,14 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
     if (m.navigator)
       m.navigator->observe(previous.timestamp, timestamp, previous.T_world_camera, r.T_world_camera,
                            decision.source == PoseSource::kIcp && !r.relocalized);
-    // The correction is measured from where dead reckoning put the frame (a partial pose's
-    // rotation kept, as in the stretch): the frames before reach it by dead reckoning alone.
-    Eigen::Isometry3d T_world_dead = T_world_estimate;
-    T_world_dead.translation() = T_world_seed.translation();
-    if (was_lost && decision.status == TrackingStatus::kRecovering)
+    if (was_lost && decision.status == TrackingStatus::kRecovering) {
+      // The correction is measured from where dead reckoning put the frame (a partial pose's
+      // rotation kept, as in the stretch): the frames before reach it by dead reckoning alone.
+      Eigen::Isometry3d T_world_dead = T_world_estimate;
+      T_world_dead.translation() = T_world_seed.translation();
       m.pending = Impl::PendingCorrection{m.last_constrained_index, r.index, T_world_dead, r.T_world_camera,
                                           m.constrained_prior, m.partial_fixed, std::move(m.lost_depth)};
+    }
     if (decision.status == TrackingStatus::kLost) m.pending.reset();
     // Taken as exact only while dead reckoning is still within ICP's reach: from a seed further
     // off, partial ICP may settle on the wrong stretch of the model in the directions it fixes
