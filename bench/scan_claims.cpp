@@ -5,7 +5,7 @@
 //   scan_claims [--scenes room,wall,fast] [--seeds 101,102,103] [--size WxH] [--frames N]
 //               [--sequence DIR [--sequence-frames N]] [--settings imu-1,imu-2,icp-10,icp-30]
 //               [--retrack-lost-frames N] [--max-condition K] [--seed-gate SIGMAS]
-//               [--partial-move-sigma M] [--work DIR]
+//               [--partial-move-sigma M] [--retracked-frame-sigma M] [--work DIR]
 //
 // Settings compared, per scan:
 //   imu-1   gyro seed, at most 1 Gauss-Newton step per frame (the paper's IMU setting)
@@ -64,6 +64,7 @@ struct Options {
   int retrack_lost_frames = ReconstructorConfig{}.retrack_lost_frames;  // 0: no backward placement
   double max_condition = IcpReliabilityThresholds{}.max_condition;     // the reliability test's kappa
   double partial_move_sigma = ReconstructorConfig{}.partial_move_sigma;
+  double retracked_frame_sigma = ReconstructorConfig{}.retracked_frame_sigma;
   double seed_gate = 0;  // > 0: ReconstructorConfig::seed_gate_with_imu at this IcpConfig::seed_gate_sigmas
 };
 
@@ -96,6 +97,7 @@ bool parse(int argc, char** argv, Options& opt) {
     else if (a == "--max-condition") opt.max_condition = std::atof(v.c_str());
     else if (a == "--seed-gate") opt.seed_gate = std::atof(v.c_str());
     else if (a == "--partial-move-sigma") opt.partial_move_sigma = std::atof(v.c_str());
+    else if (a == "--retracked-frame-sigma") opt.retracked_frame_sigma = std::atof(v.c_str());
     else if (a == "--settings") opt.settings = split(v);
     else return false;
   }
@@ -186,6 +188,7 @@ void run_setting(const Loaded& seq, const Setting& setting, const Options& opt) 
   ReconstructorConfig c;
   c.retrack_lost_frames = opt.retrack_lost_frames;
   c.partial_move_sigma = opt.partial_move_sigma;
+  c.retracked_frame_sigma = opt.retracked_frame_sigma;
   c.icp.reliability.max_condition = opt.max_condition;
   if (opt.seed_gate > 0) {
     c.seed_gate_with_imu = true;
@@ -241,7 +244,7 @@ int main(int argc, char** argv) {
     std::cerr << "usage: scan_claims [--scenes room,wall,fast] [--seeds 101,102] [--size WxH] [--frames N]\n"
                  "                   [--sequence DIR [--sequence-frames N]] [--settings imu-1,imu-2,icp-10,icp-30]\n"
                  "                   [--retrack-lost-frames N] [--max-condition K] [--seed-gate SIGMAS]\n"
-                 "                   [--partial-move-sigma M] [--work DIR]\n";
+                 "                   [--partial-move-sigma M] [--retracked-frame-sigma M] [--work DIR]\n";
     return 2;
   }
   std::printf("| scan | setting | ATE mm | lost | recovering | recoveries | frames to recover | placed backward | median it | mean it | all tracking after the stretch | fps |\n");

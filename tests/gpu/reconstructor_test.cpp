@@ -401,6 +401,14 @@ TEST(ReconstructorConfig, RejectsSettingsOutOfRange) {
   EXPECT_FALSE(c.validate().ok());
   c.partial_move_sigma = 0;  // the moves not recorded
   EXPECT_TRUE(c.validate().ok());
+  c.retracked_frame_sigma = -0.003;
+  s = c.validate();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("retracked_frame_sigma"), std::string::npos);
+  c.retracked_frame_sigma = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(c.validate().ok());
+  c.retracked_frame_sigma = 0;  // the oldest frame placed is the end
+  EXPECT_TRUE(c.validate().ok());
   c.initial_pose.translation().x() = std::numeric_limits<double>::infinity();
   EXPECT_FALSE(c.validate().ok());
 }

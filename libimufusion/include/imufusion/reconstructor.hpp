@@ -114,6 +114,10 @@ struct ReconstructorConfig {
   /// Their depth is kept while lost: the newest `retrack_lost_frames` frames (0: none, no
   /// backward placement), at 2 bytes per pixel (150 frames of 640x480: 92 MB).
   int retrack_lost_frames = 150;
+  /// The frames so placed measure the drift where the loss ended, each its position error with
+  /// this sigma per axis (m): a few frames show how fast the error still grew there. 0: only
+  /// the oldest one's error is used, as the stretch's end.
+  double retracked_frame_sigma = 0.003;
   /// After a long loss (the dead-reckoned seed beyond ICP's reach), a frame that partial ICP
   /// places along directions the frame before it did not fix (the camera finds the model again
   /// along a wall) moves its pose by the drift accumulated there. The re-estimation takes that
@@ -207,11 +211,12 @@ class Reconstructor {
   /// One pose per frame since create() or reset(). When a loss ends in tracking again, the poses
   /// of the frames in between (dead-reckoned or partial, never fused) are re-estimated: the
   /// newest by ICP backward from the recovery while it is reliable
-  /// (ReconstructorConfig::retrack_lost_frames), the rest from the correction that remains at
-  /// the oldest frame so placed (its ICP pose against where dead reckoning put it, before any
-  /// move partial ICP made there), back to the last
-  /// fully constrained frame: the conditional mean of dead reckoning's errors given that
-  /// end error, under the navigator's sigmas when the loss began. The rotation error is the gyro
+  /// (ReconstructorConfig::retrack_lost_frames), the rest back to the last fully constrained
+  /// frame from the error at the recovery and the errors of the frames so placed (their ICP
+  /// poses against where dead reckoning put them; ReconstructorConfig::retracked_frame_sigma):
+  /// the conditional mean of dead reckoning's errors given those, under the navigator's sigmas
+  /// when the loss began. With retracked_frame_sigma 0, the end is the oldest frame placed, its
+  /// error measured from where dead reckoning put it before any move partial ICP made there. The rotation error is the gyro
   /// bias error (linear in time) plus the gyro's noise (a random walk); it tilts the gravity
   /// the accelerometer model removes (drift cubic in time), to which a velocity error (linear)
   /// and an accelerometer bias error (quadratic) add. Along the directions partial ICP fixed in

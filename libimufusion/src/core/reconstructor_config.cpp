@@ -40,6 +40,8 @@ Status ReconstructorConfig::validate() const {
     return bad("retrack_lost_frames must be 0..100000, got " + std::to_string(retrack_lost_frames));
   if (!(partial_move_sigma >= 0) || !std::isfinite(partial_move_sigma))
     return bad("partial_move_sigma must be finite and >= 0, got " + std::to_string(partial_move_sigma));
+  if (!(retracked_frame_sigma >= 0) || !std::isfinite(retracked_frame_sigma))
+    return bad("retracked_frame_sigma must be finite and >= 0, got " + std::to_string(retracked_frame_sigma));
   for (const double scale : {drift_gyro_bias_sigma_scale, drift_gravity_sigma_scale})
     if (!(scale > 0) || !std::isfinite(scale))
       return bad("drift sigma scales must be finite and positive, got " + std::to_string(scale));

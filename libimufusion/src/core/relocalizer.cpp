@@ -257,15 +257,16 @@ std::vector<StretchCorrection> drift_corrections(const std::vector<StretchFrame>
     return N;
   };
 
-  // The measurements, affine in z, from one run: the end error (6 rows, exact), then for each
-  // measured move along newly fixed directions (in time order) the error just before it along
-  // them (3 rows). Which moves are taken changes only which rows a fit uses.
+  // The measurements, affine in z, from one run: the end error (6 rows, exact), the errors of
+  // the frames observed (3 rows each, always taken), then for each measured move along newly
+  // fixed directions (in time order) the error just before it along them (3 rows). Which moves
+  // are taken changes only which rows a fit uses.
   struct Move {
     Eigen::MatrixXd A;  // 3 x (n + 1)
     Eigen::Vector3d y;
     Eigen::Matrix3d noise;
   };
-  std::vector<Move> moves;
+  std::vector<Move> moves, observations;  // the observations always taken
   Eigen::MatrixXd end_A(6, n + 1);
   {
     Eigen::MatrixXd rotation = Eigen::MatrixXd::Zero(3, n + 1), position = Eigen::MatrixXd::Zero(3, n + 1),
@@ -278,7 +279,11 @@ std::vector<StretchCorrection> drift_corrections(const std::vector<StretchFrame>
             moves.push_back({N * p, N * frames[k].moved, N * (frames[k].moved_sigma * frames[k].moved_sigma)});
           p.col(constant) -= frames[k].moved;
         },
-        [](std::size_t) {});
+        [&](std::size_t k) {
+          const double sigma = frames[k].observed_sigma;
+          if (sigma > 0)
+            observations.push_back({position, frames[k].observed, Eigen::Matrix3d::Identity() * (sigma * sigma)});
+        });
     end_A << rotation, position;
   }
   Eigen::Matrix<double, 6, 1> end_y;
@@ -293,20 +298,23 @@ std::vector<StretchCorrection> drift_corrections(const std::vector<StretchFrame>
   };
   std::vector<char> taken(moves.size(), 0);
   const auto fit = [&]() {
-    const Eigen::Index m = 6 + 3 * static_cast<Eigen::Index>(std::count(taken.begin(), taken.end(), 1));
+    const Eigen::Index m =
+        6 + 3 * static_cast<Eigen::Index>(observations.size() + std::count(taken.begin(), taken.end(), 1));
     Eigen::MatrixXd A(m, n + 1);
     Eigen::VectorXd y(m);
     Eigen::MatrixXd noise = Eigen::MatrixXd::Zero(m, m);
     A.topRows<6>() = end_A;
     y.head<6>() = end_y;
     Eigen::Index row = 6;
-    for (std::size_t j = 0; j < moves.size(); ++j) {
-      if (!taken[j]) continue;
-      A.middleRows<3>(row) = moves[j].A;
-      y.segment<3>(row) = moves[j].y;
-      noise.block<3, 3>(row, row) = moves[j].noise;
+    const auto add = [&](const Move& measurement) {
+      A.middleRows<3>(row) = measurement.A;
+      y.segment<3>(row) = measurement.y;
+      noise.block<3, 3>(row, row) = measurement.noise;
       row += 3;
-    }
+    };
+    for (const Move& observation : observations) add(observation);
+    for (std::size_t j = 0; j < moves.size(); ++j)
+      if (taken[j]) add(moves[j]);
     y -= A.col(constant);
     const Eigen::MatrixXd H = A.leftCols(n);
     Eigen::MatrixXd cross = variance.asDiagonal() * H.transpose();  // Sigma H^T

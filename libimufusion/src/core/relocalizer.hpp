@@ -87,6 +87,10 @@ struct StretchFrame {
   // fixed directions are exact (the drift restarts there) and no move is recorded.
   Eigen::Vector3d moved = Eigen::Vector3d::Zero();
   double moved_sigma = 0;
+  // A frame a recovery placed by ICP (backward from it): its position error, truth - estimate
+  // (world), measured with this sigma per axis; zero: not measured.
+  Eigen::Vector3d observed = Eigen::Vector3d::Zero();
+  double observed_sigma = 0;
 };
 
 /// Truth - estimate of a dead-reckoned pose (world): truth = Exp(rotation) * estimate, position
@@ -117,6 +121,9 @@ struct StretchCorrection {
 ///     raises the measurements' chi-square by no more than its 99.9th percentile for the degrees
 ///     of freedom it adds: one that contradicts the end error (an alignment that settled on
 ///     the wrong stretch of the model) is left out, its move still applied.
+///   - Where a recovery placed a frame by ICP (`observed_sigma` > 0: the frames just before the
+///     end), its position error is measured too. A few such frames measure how fast the error
+///     still grew at the end, which the end error alone leaves to the prior.
 /// The interval before a frame takes that frame's orientation, the last interval the last
 /// frame's. The estimate's linear spread when a source's sigmas are all zero: with no rotation
 /// source the rotation error grows linearly, with no translation source the velocity error takes

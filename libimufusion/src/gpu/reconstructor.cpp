@@ -407,7 +407,11 @@ struct Reconstructor::Impl {
   }
 
   // See Reconstructor::trajectory().
-  void correct_lost_stretch(const PendingCorrection& c) {
+  // `placed`: the frames the retrack placed (newest first), each measuring the error there with
+  // ReconstructorConfig::retracked_frame_sigma; they keep their placed poses. Empty: `c` ends at
+  // the oldest frame placed.
+  void correct_lost_stretch(const PendingCorrection& c,
+                            const std::vector<std::pair<std::size_t, Eigen::Isometry3d>>& placed) {
     const double t0 = trajectory[c.anchor].timestamp;
     const double span = trajectory[c.index].timestamp - t0;
     if (!(span > 0)) return;
@@ -425,11 +429,17 @@ struct Reconstructor::Impl {
           f.moved_sigma = config.partial_move_sigma;
         }
       }
+      const auto at = std::find_if(placed.begin(), placed.end(), [&](const auto& p) { return p.first == i; });
+      if (at != placed.end()) {
+        f.observed = at->second.translation() - trajectory[i].T_world_camera.translation();
+        f.observed_sigma = config.retracked_frame_sigma;
+      }
       frames.push_back(f);
     }
     const std::vector<StretchCorrection> corrections =
         drift_corrections(frames, span, translation, rotation, c.prior);
-    for (std::size_t i = c.anchor + 1; i < c.index; ++i) {
+    const std::size_t end = placed.empty() ? c.index : placed.back().first;
+    for (std::size_t i = c.anchor + 1; i < end; ++i) {
       const StretchCorrection& correction = corrections[i - c.anchor - 1];
       Eigen::Isometry3d& T = trajectory[i].T_world_camera;
       T.linear() = inertial::exp_so3(correction.rotation) * T.linear();
@@ -610,9 +620,12 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
     if (!retracked) return retracked.error();
     // Back to this frame's reference for the next frame.
     if (retracked->moved_reference) IMUFUSION_RETURN_IF_ERROR(m.update_reference(r.T_world_camera, r.timings));
+    if (m.config.retracked_frame_sigma > 0)
+      m.correct_lost_stretch(*m.pending, retracked->placed);
+    else
+      m.correct_lost_stretch(retracked->correction, {});
     for (const auto& [index, pose] : retracked->placed) m.trajectory[index].T_world_camera = pose;
     r.retracked = retracked->placed.size();
-    m.correct_lost_stretch(retracked->correction);
     m.pending.reset();
     r.timings.retrack_ms = ms_since(t1);
   }
