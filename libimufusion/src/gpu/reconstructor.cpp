@@ -407,11 +407,12 @@ struct Reconstructor::Impl {
   }
 
   // See Reconstructor::trajectory().
-  // `placed`: the frames the retrack placed (newest first), each measuring the error there with
-  // ReconstructorConfig::retracked_frame_sigma; they keep their placed poses. Empty: `c` ends at
-  // the oldest frame placed.
+  // `placed`: the frames the retrack placed (c.index - 1 and down, newest first), each measuring
+  // the error there with ReconstructorConfig::retracked_frame_sigma; they keep their placed
+  // poses. Empty: `c` ends at the oldest frame placed.
   void correct_lost_stretch(const PendingCorrection& c,
                             const std::vector<std::pair<std::size_t, Eigen::Isometry3d>>& placed) {
+    const std::size_t first_placed = c.index - placed.size();
     const double t0 = trajectory[c.anchor].timestamp;
     const double span = trajectory[c.index].timestamp - t0;
     if (!(span > 0)) return;
@@ -429,17 +430,15 @@ struct Reconstructor::Impl {
           f.moved_sigma = config.partial_move_sigma;
         }
       }
-      const auto at = std::find_if(placed.begin(), placed.end(), [&](const auto& p) { return p.first == i; });
-      if (at != placed.end()) {
-        f.observed = at->second.translation() - trajectory[i].T_world_camera.translation();
+      if (i >= first_placed) {
+        f.observed = placed[c.index - 1 - i].second.translation() - trajectory[i].T_world_camera.translation();
         f.observed_sigma = config.retracked_frame_sigma;
       }
       frames.push_back(f);
     }
     const std::vector<StretchCorrection> corrections =
         drift_corrections(frames, span, translation, rotation, c.prior);
-    const std::size_t end = placed.empty() ? c.index : placed.back().first;
-    for (std::size_t i = c.anchor + 1; i < end; ++i) {
+    for (std::size_t i = c.anchor + 1; i < first_placed; ++i) {
       const StretchCorrection& correction = corrections[i - c.anchor - 1];
       Eigen::Isometry3d& T = trajectory[i].T_world_camera;
       T.linear() = inertial::exp_so3(correction.rotation) * T.linear();
