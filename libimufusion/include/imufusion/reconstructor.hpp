@@ -54,6 +54,11 @@ struct ReconstructorConfig {
   TrackingConfig tracking;
   /// false: the baseline without inertial data, dIMU = identity (samples passed are ignored).
   bool use_imu = true;
+  /// While tracking on the IMU's prediction (not lost or recovering), ICP spends its per-frame
+  /// budget at full resolution only, the coarser pyramid levels skipped: the seed is millimetres
+  /// off, within the finest level's reach. Lost and recovering frames, and the baseline without
+  /// the IMU, keep the pyramid (bench/README.md: room and fast scans, 2 iterations per frame).
+  bool imu_seed_finest_level_only = true;
   InertialConfig inertial;
   /// While tracking with an IMU prediction of both rotation and translation, solve ICP
   /// degeneracy-aware (IcpConfig::keep_seed_in_degenerate_directions): a frame whose only fault

@@ -240,6 +240,10 @@ struct Reconstructor::Impl {
       icp.seed_sigma_translation = prediction.translation_sigma;
       if (seed_gate_holding) icp.seed_gate_sigmas = icp.seed_gate_hold_sigmas;
     }
+    // An inertial seed while tracking is millimetres off, within the finest level's reach: the
+    // few iterations allowed are all spent at full resolution.
+    if (config.imu_seed_finest_level_only && prediction.rotation_from_imu && !settling)
+      std::fill(icp.iterations_per_level.begin() + 1, icp.iterations_per_level.end(), 0);
     if (settling) {
       icp.max_total_iterations = std::max(icp.max_total_iterations, config.tracking.recovery_icp_iterations);
       icp.converged_rotation = std::max(icp.converged_rotation, config.recovery_converged_rotation);
