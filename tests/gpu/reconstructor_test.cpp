@@ -107,6 +107,8 @@ TEST_F(ReconstructorTest, TracksTheRoomWithTheImuInTwoIterationsPerFrame) {
     EXPECT_TRUE(results[i].fused);
     EXPECT_TRUE(results[i].imu.rotation_from_imu) << "frame " << i;
     EXPECT_LE(results[i].icp.quality.iterations, 2);
+    // The inertial seed is within the finest level's reach: no step is spent on the pyramid.
+    EXPECT_EQ(results[i].icp.quality.coarse_iterations, 0) << "frame " << i;
   }
   EXPECT_EQ(rec.trajectory().size(), frames_.size());
   EXPECT_LT(ate(rec.trajectory()), 0.01);
@@ -115,6 +117,23 @@ TEST_F(ReconstructorTest, TracksTheRoomWithTheImuInTwoIterationsPerFrame) {
   ASSERT_TRUE(mesh.ok()) << mesh.error().describe();
   EXPECT_GT(mesh->triangles.size(), 1000u);
   EXPECT_EQ(rec.validation_error_count(), 0u);
+}
+
+TEST_F(ReconstructorTest, WithoutTheFinestLevelRuleTheImuSeededBudgetStartsOnThePyramid) {
+  // imu_seed_finest_level_only off: the 2-step budget keeps one step for full resolution and
+  // spends the other at the next coarser level.
+  ReconstructorConfig c = config(true, 2);
+  c.imu_seed_finest_level_only = false;
+  Reconstructor rec = make(c);
+  for (std::size_t i = 0; i < 8; ++i) {
+    const Frame& f = frames_[i];
+    auto r = rec.track_and_fuse(f.timestamp, f.depth, nullptr, f.imu);
+    ASSERT_TRUE(r.ok()) << r.error().describe();
+    if (i == 0) continue;
+    EXPECT_EQ(r->status, TrackingStatus::kTracking) << "frame " << i << ": " << r->icp.reason;
+    EXPECT_EQ(r->icp.quality.iterations, 2) << "frame " << i;
+    EXPECT_EQ(r->icp.quality.coarse_iterations, 1) << "frame " << i;
+  }
 }
 
 TEST_F(ReconstructorTest, TheSeedGateLeavesWellTrackedFramesAlone) {
@@ -147,6 +166,10 @@ TEST_F(ReconstructorTest, BaselineWithoutImuTracksWithMoreIterations) {
     auto r = rec.track_and_fuse(f.timestamp, f.depth, nullptr, f.imu);
     ASSERT_TRUE(r.ok()) << r.error().describe();
     EXPECT_FALSE(r->imu.rotation_from_imu);
+    // Without an inertial seed ICP starts on the pyramid.
+    if (!results.empty()) {
+      EXPECT_GT(r->icp.quality.coarse_iterations, 0) << "t=" << f.timestamp;
+    }
     results.push_back(*r);
   }
   const ScanStatistics stats = summarize_scan(results);
@@ -187,6 +210,9 @@ TEST_F(ReconstructorTest, DeadReckonsThroughBlankFramesAndRecoversOntoTheModel) 
     ++back;
   }
   ASSERT_LT(back, results.size()) << "tracking never resumed";
+  // Frames settling onto the model after the loss keep the pyramid (the seed carries the drift).
+  for (std::size_t i = blank_end; i <= back; ++i)
+    EXPECT_GT(results[i].icp.quality.coarse_iterations, 0) << "frame " << i;
   EXPECT_GE(back, blank_end + recovery - 1);
   EXPECT_LE(back, blank_end + recovery + 2) << "recovery took too long";
   for (std::size_t i = back - (recovery - 1); i < back; ++i) {
@@ -214,8 +240,9 @@ TEST_F(ReconstructorTest, PlacesTheLostFramesBackwardFromTheRecovery) {
   const Eigen::Isometry3d T0 = reader_->ground_truth().front().T_world_camera;
   const auto error = [&](const StampedPose& pose) {
     const StampedPose* truth = find_pose(reader_->ground_truth(), pose.timestamp);
-    return truth == nullptr ? std::numeric_limits<double>::infinity()
-                            : ((T0.inverse() * truth->T_world_camera).translation() - pose.T_world_camera.translation()).norm();
+    if (truth == nullptr) return std::numeric_limits<double>::infinity();
+    const Eigen::Vector3d true_position = (T0.inverse() * truth->T_world_camera).translation();
+    return (true_position - pose.T_world_camera.translation()).norm();
   };
   const auto scan = [&](int retrack_lost_frames, std::vector<FrameResult>& results) {
     ReconstructorConfig c = config(true, 2);
@@ -245,6 +272,9 @@ TEST_F(ReconstructorTest, PlacesTheLostFramesBackwardFromTheRecovery) {
   std::size_t back = blank_begin;
   while (back < results.size() && !results[back].recovered) ++back;
   ASSERT_LT(back, results.size()) << "tracking never resumed";
+  // Frames settling onto the model after the loss keep the pyramid (the seed carries the drift).
+  for (std::size_t i = blank_end; i <= back; ++i)
+    EXPECT_GT(results[i].icp.quality.coarse_iterations, 0) << "frame " << i;
   const std::size_t start = back + 1 - static_cast<std::size_t>(rec.config().tracking.recovery_frames);
   ASSERT_GT(start, blank_end) << "the loss ended before any lost frame had depth";
   // Every lost frame with depth is placed, within a centimetre of the truth, where dead

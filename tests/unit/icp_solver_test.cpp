@@ -188,6 +188,9 @@ TEST(IcpCpu, RecoversAKnownMotionInTheRoom) {
   EXPECT_LT(rotation_deg(error), 0.1);
   EXPECT_TRUE(result->reliable) << result->reason;
   EXPECT_GT(result->quality.iterations, 1);
+  // The pyramid ran: some steps at the coarser levels, and at least one at full resolution.
+  EXPECT_GT(result->quality.coarse_iterations, 0);
+  EXPECT_LT(result->quality.coarse_iterations, result->quality.iterations);
   EXPECT_LT(result->quality.condition, IcpReliabilityThresholds{}.max_condition);
 }
 
@@ -295,6 +298,7 @@ TEST(IcpCpu, ASingleIterationBudgetIsSpentAtFullResolution) {
   auto result = run_icp(source, config, Eigen::Isometry3d::Identity());
   ASSERT_TRUE(result.ok());
   EXPECT_EQ(result->quality.iterations, 1);
+  EXPECT_EQ(result->quality.coarse_iterations, 0);
   // One Gauss-Newton step from a small offset lands close.
   const Eigen::Isometry3d error = pair.T_ref_cur.inverse() * result->T_ref_cur;
   EXPECT_LT(error.translation().norm(), 0.002);

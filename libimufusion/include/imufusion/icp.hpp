@@ -130,6 +130,7 @@ struct IcpQuality {
   double weight_sum = 0;          // sum(w)
   double condition = 0;           // kappa = sigma_max / sigma_min of AtA (inf when singular)
   int iterations = 0;             // Gauss-Newton steps run, all levels
+  int coarse_iterations = 0;      // of those, the steps run below full resolution (levels 1..)
   bool converged = false;         // the finest level's update fell below the thresholds
   /// Directions of the last step updated by ICP: 6 unless degeneracy-aware solving left some at
   /// the initial pose.

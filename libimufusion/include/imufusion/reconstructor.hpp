@@ -213,20 +213,20 @@ class Reconstructor {
   /// calibration estimates (gyro bias, mounting rotation) are kept.
   Status reset();
 
-  /// One pose per frame since create() or reset(). When a loss ends in tracking again, the poses
-  /// of the frames in between (dead-reckoned or partial, never fused) are re-estimated: the
-  /// newest by ICP backward from the recovery while it is reliable
-  /// (ReconstructorConfig::retrack_lost_frames), the rest back to the last fully constrained
-  /// frame from the error at the recovery and the errors of the frames so placed (their ICP
-  /// poses against where dead reckoning put them; ReconstructorConfig::retracked_frame_sigma):
-  /// the conditional mean of dead reckoning's errors given those, under the navigator's sigmas
-  /// when the loss began. With retracked_frame_sigma 0, the end is the oldest frame placed, its
-  /// error measured from where dead reckoning put it before any move partial ICP made there. The rotation error is the gyro
-  /// bias error (linear in time) plus the gyro's noise (a random walk); it tilts the gravity
-  /// the accelerometer model removes (drift cubic in time), to which a velocity error (linear)
-  /// and an accelerometer bias error (quadratic) add. Along the directions partial ICP fixed in
-  /// a frame (the distance to a bare wall), the drift starts again from zero there; after a long
-  /// loss, a frame's move along directions newly fixed measures the drift before it
+  /// One pose per frame since create() or reset(). When a loss ends in tracking again, the poses of
+  /// the frames in between (dead-reckoned or partial, never fused) are re-estimated: the newest by
+  /// ICP backward from the recovery while it is reliable
+  /// (ReconstructorConfig::retrack_lost_frames), the rest back to the last fully constrained frame
+  /// from the error at the recovery and the errors of the frames so placed (their ICP poses against
+  /// where dead reckoning put them; ReconstructorConfig::retracked_frame_sigma): the conditional
+  /// mean of dead reckoning's errors given those, under the navigator's sigmas when the loss began.
+  /// With retracked_frame_sigma 0, the end is the oldest frame placed, its error measured from
+  /// where dead reckoning put it before any move partial ICP made there. The rotation error is the
+  /// gyro bias error (linear in time) plus the gyro's noise (a random walk); it tilts the gravity
+  /// the accelerometer model removes (drift cubic in time), to which a velocity error (linear) and
+  /// an accelerometer bias error (quadratic) add. Along the directions partial ICP fixed in a frame
+  /// (the distance to a bare wall), the drift starts again from zero there; after a long loss, a
+  /// frame's move along directions newly fixed measures the drift before it
   /// (ReconstructorConfig::partial_move_sigma; drift_corrections in src/core/relocalizer.hpp).
   /// FrameResult keeps the pose each frame had when it was tracked.
   const Trajectory& trajectory() const;

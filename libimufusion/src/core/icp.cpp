@@ -217,6 +217,7 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
   }
   Eigen::Isometry3d T = T_ref_cur_init;
   int total = 0;
+  int coarse = 0;
   bool any_step = false;
   int finest_run = levels;
   // The seed gate judges the last step's singular directions: kept only when it may run.
@@ -249,6 +250,7 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
       last_fixed = step.fixed_translation;
       if (seed_gate) last_step = step;
       ++total;
+      if (level > 0) ++coarse;
       finest_run = level;
       if (!step.solvable) {
         converged = false;
@@ -268,6 +270,7 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
     result.quality.converged = converged;
   }
   result.quality.iterations = total;
+  result.quality.coarse_iterations = coarse;
   result.T_ref_cur = T;
   if (!any_step) {
     result.quality.converged = false;

@@ -1,5 +1,6 @@
 #include <cmath>
 #include <string>
+#include <utility>
 
 #include "imufusion/reconstructor.hpp"
 
@@ -24,24 +25,24 @@ Status ReconstructorConfig::validate() const {
   if (use_imu) IMUFUSION_RETURN_IF_ERROR(inertial.validate());
   if (!(recovery_converged_rotation > 0 && recovery_converged_translation > 0))
     return bad("recovery convergence thresholds must be positive");
-  if (!(max_partial_seconds >= 0) || !std::isfinite(max_partial_seconds))
-    return bad("max_partial_seconds must be finite and >= 0, got " + std::to_string(max_partial_seconds));
   if (relocalization_interval < 1)
     return bad("relocalization_interval must be at least 1, got " + std::to_string(relocalization_interval));
   if (relocalization_candidates < 1 || relocalization_candidates > 16)
     return bad("relocalization_candidates must be 1..16, got " + std::to_string(relocalization_candidates));
   if (!(relocalization_cell > 0 && relocalization_cell <= 1))
     return bad("relocalization_cell must be in (0, 1] m, got " + std::to_string(relocalization_cell));
-  if (!(relocalization_drift_acceleration >= 0) || !std::isfinite(relocalization_drift_acceleration))
-    return bad("relocalization_drift_acceleration must be finite and >= 0");
   if (!(relocalization_max_radius >= 0 && relocalization_max_radius <= 10))
     return bad("relocalization_max_radius must be 0..10 m, got " + std::to_string(relocalization_max_radius));
   if (retrack_lost_frames < 0 || retrack_lost_frames > 100000)
     return bad("retrack_lost_frames must be 0..100000, got " + std::to_string(retrack_lost_frames));
-  if (!(partial_move_sigma >= 0) || !std::isfinite(partial_move_sigma))
-    return bad("partial_move_sigma must be finite and >= 0, got " + std::to_string(partial_move_sigma));
-  if (!(retracked_frame_sigma >= 0) || !std::isfinite(retracked_frame_sigma))
-    return bad("retracked_frame_sigma must be finite and >= 0, got " + std::to_string(retracked_frame_sigma));
+  const std::pair<const char*, double> non_negative[] = {
+      {"max_partial_seconds", max_partial_seconds},
+      {"relocalization_drift_acceleration", relocalization_drift_acceleration},
+      {"partial_move_sigma", partial_move_sigma},
+      {"retracked_frame_sigma", retracked_frame_sigma}};
+  for (const auto& [name, value] : non_negative)
+    if (!(value >= 0) || !std::isfinite(value))
+      return bad(std::string(name) + " must be finite and >= 0, got " + std::to_string(value));
   for (const double scale : {drift_gyro_bias_sigma_scale, drift_gravity_sigma_scale})
     if (!(scale > 0) || !std::isfinite(scale))
       return bad("drift sigma scales must be finite and positive, got " + std::to_string(scale));
