@@ -5,7 +5,8 @@
 //   scan_claims [--scenes room,wall,fast] [--seeds 101,102,103] [--size WxH] [--frames N]
 //               [--sequence DIR [--sequence-frames N]] [--settings imu-1,imu-2,icp-10,icp-30]
 //               [--retrack-lost-frames N] [--max-condition K] [--seed-gate SIGMAS]
-//               [--partial-move-sigma M] [--retracked-frame-sigma M] [--work DIR]
+//               [--partial-move-sigma M] [--retracked-frame-sigma M]
+//               [--recovery-agreement-distance M] [--work DIR]
 //
 // Settings compared, per scan:
 //   imu-1   gyro seed, at most 1 Gauss-Newton step per frame (the paper's IMU setting)
@@ -13,7 +14,9 @@
 //   icp-10  no IMU, at most 10
 //   icp-30  no IMU, at most 30 (the paper's comparison)
 // Printed per scan and setting: ATE RMSE (mm), lost and recovering frames, recoveries and frames
-// to recover, lost frames placed backward from their recovery, median / mean ICP iterations,
+// to recover, lost frames placed backward from their recovery, recovering frames that restarted
+// the recovery's count (ReconstructorConfig::recovery_agreement_distance), median / mean ICP
+// iterations,
 // whether every frame after the wall stretch tracks, and the frame rate.
 //
 // Synthetic scans with an IMU also check the inertial estimates' reported sigmas, which the
@@ -65,6 +68,7 @@ struct Options {
   double max_condition = IcpReliabilityThresholds{}.max_condition;     // the reliability test's kappa
   double partial_move_sigma = ReconstructorConfig{}.partial_move_sigma;
   double retracked_frame_sigma = ReconstructorConfig{}.retracked_frame_sigma;
+  double recovery_agreement_distance = ReconstructorConfig{}.recovery_agreement_distance;
   double seed_gate = 0;  // > 0: ReconstructorConfig::seed_gate_with_imu at this IcpConfig::seed_gate_sigmas
 };
 
@@ -98,6 +102,8 @@ bool parse(int argc, char** argv, Options& opt) {
     else if (a == "--seed-gate") opt.seed_gate = std::atof(v.c_str());
     else if (a == "--partial-move-sigma") opt.partial_move_sigma = std::atof(v.c_str());
     else if (a == "--retracked-frame-sigma") opt.retracked_frame_sigma = std::atof(v.c_str());
+    else if (a == "--recovery-agreement-distance")
+      opt.recovery_agreement_distance = std::atof(v.c_str());
     else if (a == "--settings") opt.settings = split(v);
     else return false;
   }
@@ -189,6 +195,7 @@ void run_setting(const Loaded& seq, const Setting& setting, const Options& opt) 
   c.retrack_lost_frames = opt.retrack_lost_frames;
   c.partial_move_sigma = opt.partial_move_sigma;
   c.retracked_frame_sigma = opt.retracked_frame_sigma;
+  c.recovery_agreement_distance = opt.recovery_agreement_distance;
   c.icp.reliability.max_condition = opt.max_condition;
   if (opt.seed_gate > 0) {
     c.seed_gate_with_imu = true;
@@ -230,9 +237,9 @@ void run_setting(const Loaded& seq, const Setting& setting, const Options& opt) 
   }
   std::string recover;
   for (std::size_t k : s.recovery_frames) recover += (recover.empty() ? "" : "/") + std::to_string(k);
-  std::printf("| %s | %s | %.1f | %zu | %zu | %zu | %s | %zu | %.1f | %.2f | %s | %.1f |\n", seq.label.c_str(),
+  std::printf("| %s | %s | %.1f | %zu | %zu | %zu | %s | %zu | %zu | %.1f | %.2f | %s | %.1f |\n", seq.label.c_str(),
               setting.name, ate_mm, s.lost, s.recovering, s.recoveries, recover.empty() ? "-" : recover.c_str(),
-              s.retracked, s.median_icp_iterations, s.mean_icp_iterations, after.c_str(), s.fps);
+              s.retracked, s.recovery_restarts, s.median_icp_iterations, s.mean_icp_iterations, after.c_str(), s.fps);
   std::fflush(stdout);
 }
 
@@ -244,11 +251,12 @@ int main(int argc, char** argv) {
     std::cerr << "usage: scan_claims [--scenes room,wall,fast] [--seeds 101,102] [--size WxH] [--frames N]\n"
                  "                   [--sequence DIR [--sequence-frames N]] [--settings imu-1,imu-2,icp-10,icp-30]\n"
                  "                   [--retrack-lost-frames N] [--max-condition K] [--seed-gate SIGMAS]\n"
-                 "                   [--partial-move-sigma M] [--retracked-frame-sigma M] [--work DIR]\n";
+                 "                   [--partial-move-sigma M] [--retracked-frame-sigma M]\n"
+                 "                   [--recovery-agreement-distance M] [--work DIR]\n";
     return 2;
   }
-  std::printf("| scan | setting | ATE mm | lost | recovering | recoveries | frames to recover | placed backward | median it | mean it | all tracking after the stretch | fps |\n");
-  std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+  std::printf("| scan | setting | ATE mm | lost | recovering | recoveries | frames to recover | placed backward | restarts | median it | mean it | all tracking after the stretch | fps |\n");
+  std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
   for (const std::string& name : opt.scenes) {
     const auto kind = synth::parse_scene_kind(name);
     if (!kind) {

@@ -237,6 +237,7 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
   j["partial_icp_frames"] = stats.partial;
   j["recoveries"] = stats.recoveries;
   j["relocalizations"] = stats.relocalizations;
+  j["recovery_restarts"] = stats.recovery_restarts;
   j["retracked_frames"] = stats.retracked;
   j["frames_to_recover"] = stats.recovery_frames;
   j["mean_icp_iterations"] = stats.mean_icp_iterations;

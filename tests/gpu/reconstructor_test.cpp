@@ -278,16 +278,27 @@ TEST_F(ReconstructorTest, PlacesTheLostFramesBackwardFromTheRecovery) {
   const std::size_t start = back + 1 - static_cast<std::size_t>(rec.config().tracking.recovery_frames);
   ASSERT_GT(start, blank_end) << "the loss ended before any lost frame had depth";
   // Every lost frame with depth is placed, within a centimetre of the truth, where dead
-  // reckoning had it decimetres off.
+  // reckoning had it decimetres off. The relocalized frame's successor finds the jolt still in
+  // the velocity, ICP moves it 20 cm from its seed: it starts the recovery's count again and
+  // the velocity is forgotten, so the relocalized frame rejoins the stretch and is placed too.
   EXPECT_EQ(results[back].retracked, start - blank_end);
   for (std::size_t i = blank_end; i < start; ++i) {
-    EXPECT_EQ(results[i].status, TrackingStatus::kLost) << "frame " << i;
+    EXPECT_NE(results[i].status, TrackingStatus::kTracking) << "frame " << i;
     EXPECT_FALSE(results[i].fused) << "frame " << i;
-    EXPECT_GT(error({results[i].timestamp, results[i].T_world_camera}), 0.1) << "frame " << i;
+    if (results[i].status == TrackingStatus::kLost)
+      EXPECT_GT(error({results[i].timestamp, results[i].T_world_camera}), 0.1) << "frame " << i;
+    else
+      EXPECT_TRUE(results[start].recovery_restarted) << "frame " << i << " recovering before the final count";
     EXPECT_LT(error(rec.trajectory()[i]), 0.01) << "frame " << i;
+  }
+  for (std::size_t i = start; i <= back; ++i) EXPECT_NE(results[i].status, TrackingStatus::kLost) << "frame " << i;
+  if (results[start].recovery_restarted) {
+    EXPECT_TRUE(results[start].imu.translation_predicted);
+    EXPECT_FALSE(results[start + 1].imu.translation_predicted) << "the velocity was not forgotten";
   }
   const ScanStatistics stats = summarize_scan(results);
   EXPECT_EQ(stats.retracked, start - blank_end);
+  EXPECT_LE(stats.recovery_restarts, 1u);
 
   // Without the backward placement, the drift model alone re-estimates those frames.
   std::vector<FrameResult> unplaced_results;
@@ -295,6 +306,71 @@ TEST_F(ReconstructorTest, PlacesTheLostFramesBackwardFromTheRecovery) {
   ASSERT_EQ(unplaced_results.size(), frames_.size());
   EXPECT_EQ(unplaced_results[back].retracked, 0u);
   EXPECT_LT(ate(rec.trajectory()), 0.5 * ate(unplaced.trajectory()));
+}
+
+// Depth returns after a few blank frames with a view from further along the path (what a
+// repeated or ambiguous stretch of the scene does to a relocalized frame): ICP fits that frame
+// where the view was taken, not where the camera is. The next frame, back at the true view,
+// settles centimetres from where the wrong fit and the IMU put it: it disagrees with the frame
+// counted before it and starts the recovery's count again. The wrong fit then rejoins the lost
+// stretch instead of ending it, and the re-estimated stretch does not inherit its error.
+TEST_F(ReconstructorTest, ARecoveringFrameFitAtTheWrongPlaceDoesNotEndTheLoss) {
+  const std::size_t blank_begin = 14, blank_end = 17, ahead = 7;  // 7.8 cm along the path
+  const auto scan = [&](double agreement, std::vector<FrameResult>& results) {
+    ReconstructorConfig c = config(true, 2);
+    c.retrack_lost_frames = 0;  // the stretch's end alone re-estimates it
+    c.recovery_agreement_distance = agreement;
+    Reconstructor rec = make(c);
+    for (std::size_t i = 0; i < frames_.size(); ++i) {
+      DepthImage depth = frames_[i == blank_end ? i + ahead : i].depth;
+      if (i >= blank_begin && i < blank_end) std::fill(depth.data.begin(), depth.data.end(), 0);
+      auto r = rec.track_and_fuse(frames_[i].timestamp, depth, nullptr, frames_[i].imu);
+      EXPECT_TRUE(r.ok()) << r.error().describe();
+      if (!r.ok()) break;
+      results.push_back(*r);
+    }
+    return rec;
+  };
+  const Eigen::Isometry3d T0 = reader_->ground_truth().front().T_world_camera;
+  const auto error = [&](const StampedPose& pose) {
+    const StampedPose* truth = find_pose(reader_->ground_truth(), pose.timestamp);
+    if (truth == nullptr) return std::numeric_limits<double>::infinity();
+    return ((T0.inverse() * truth->T_world_camera).translation() - pose.T_world_camera.translation()).norm();
+  };
+  const auto worst = [&](const Trajectory& trajectory) {
+    double e = 0;
+    for (std::size_t i = blank_begin; i <= blank_end; ++i) e = std::max(e, error(trajectory[i]));
+    return e;
+  };
+  const auto first_recovered = [](const std::vector<FrameResult>& results) {
+    std::size_t back = 0;
+    while (back < results.size() && !results[back].recovered) ++back;
+    return back;
+  };
+  const auto recovery = static_cast<std::size_t>(ReconstructorConfig{}.tracking.recovery_frames);
+
+  std::vector<FrameResult> results;
+  Reconstructor rec = scan(ReconstructorConfig{}.recovery_agreement_distance, results);
+  ASSERT_EQ(results.size(), frames_.size());
+  EXPECT_EQ(results[blank_end].status, TrackingStatus::kRecovering);
+  EXPECT_GT(error({results[blank_end].timestamp, results[blank_end].T_world_camera}), 0.05) << "no wrong fit";
+  const FrameResult& next = results[blank_end + 1];
+  EXPECT_TRUE(next.recovery_restarted);
+  EXPECT_EQ(next.status, TrackingStatus::kRecovering);
+  EXPECT_LT(error({next.timestamp, next.T_world_camera}), 0.01);
+  EXPECT_FALSE(results[blank_end + 2].imu.translation_predicted) << "the jump was taken as motion";
+  // The count starts at the frame after the wrong fit: it does not count.
+  EXPECT_EQ(first_recovered(results), blank_end + recovery);
+  EXPECT_EQ(summarize_scan(results).recovery_restarts, 1u);
+  // The lost frames and the wrong fit are re-estimated from the first frame that agreed.
+  EXPECT_LT(worst(rec.trajectory()), 0.015);
+
+  // Without the check, the wrong fit counts, ends the stretch and drags it centimetres off.
+  std::vector<FrameResult> unchecked_results;
+  Reconstructor unchecked = scan(0, unchecked_results);
+  ASSERT_EQ(unchecked_results.size(), frames_.size());
+  EXPECT_EQ(first_recovered(unchecked_results), blank_end + recovery - 1);
+  EXPECT_GT(worst(unchecked.trajectory()), 0.03);
 }
 
 TEST_F(ReconstructorTest, KnownPosesAreFusedWithoutTracking) {
@@ -438,6 +514,14 @@ TEST(ReconstructorConfig, RejectsSettingsOutOfRange) {
   c.retracked_frame_sigma = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(c.validate().ok());
   c.retracked_frame_sigma = 0;  // the oldest frame placed is the end
+  EXPECT_TRUE(c.validate().ok());
+  c.recovery_agreement_distance = -0.05;
+  s = c.validate();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("recovery_agreement_distance"), std::string::npos);
+  c.recovery_agreement_distance = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(c.validate().ok());
+  c.recovery_agreement_distance = 0;  // no check
   EXPECT_TRUE(c.validate().ok());
   c.initial_pose.translation().x() = std::numeric_limits<double>::infinity();
   EXPECT_FALSE(c.validate().ok());

@@ -94,6 +94,33 @@ TEST(TrackingStateMachine, RecoveringReliableButUnconvergedHoldsTheCount) {
   expect(m.step(true, true), TrackingStatus::kTracking, PoseSource::kIcp, true);
 }
 
+TEST(TrackingStateMachine, ADisagreeingRecoveringFrameStartsTheCountAgainFromItself) {
+  auto m = lost_machine(3);
+  m.step(true, true);
+  EXPECT_EQ(m.step(true, true).good_frames, 2);
+  m.restart_recovery();
+  auto restarted = m.step(true, true);
+  expect(restarted, TrackingStatus::kRecovering, PoseSource::kIcp, false);
+  EXPECT_EQ(restarted.good_frames, 1);
+  EXPECT_FALSE(restarted.recovered);
+  EXPECT_EQ(m.step(true, true).good_frames, 2);
+  auto d = m.step(true, true);
+  expect(d, TrackingStatus::kTracking, PoseSource::kIcp, true);
+  EXPECT_TRUE(d.recovered);
+}
+
+TEST(TrackingStateMachine, RestartingTheRecoveryChangesNothingWhileTrackingOrLost) {
+  TrackingStateMachine tracking({3, 10});
+  tracking.start();
+  tracking.restart_recovery();
+  expect(tracking.step(true, true), TrackingStatus::kTracking, PoseSource::kIcp, true);
+  auto lost = lost_machine(1);
+  lost.restart_recovery();
+  auto d = lost.step(true, true);
+  expect(d, TrackingStatus::kTracking, PoseSource::kIcp, true);
+  EXPECT_TRUE(d.recovered);
+}
+
 TEST(TrackingStateMachine, RecoveringUnreliableFallsBackToLost) {
   auto m = lost_machine(3);
   m.step(true, true);

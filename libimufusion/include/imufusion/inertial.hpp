@@ -194,6 +194,10 @@ class InertialNavigator {
                const Eigen::Isometry3d& T_world_b, bool reliable);
 
   InertialStatus status() const;
+  /// Forgets the velocity (after a pose jump that was no motion: a wrong fit corrected); keeps
+  /// the last frame, gravity and the calibration. Translation is predicted again once tracked
+  /// pairs have measured the velocity.
+  void forget_velocity();
   /// Forgets the tracking memory (last frame, velocity, gravity: all tied to the tracked world
   /// frame); keeps the samples and the calibration (bias, mounting rotation).
   void reset();

@@ -130,6 +130,17 @@ struct ReconstructorConfig {
   /// the error the recovery measured (a partial alignment that settled on the wrong stretch of
   /// the model does not); 0: such frames count as dead-reckoned.
   double partial_move_sigma = 0.01;
+  /// m: while recovering with a predicted translation, a frame whose ICP settles farther than
+  /// this from its seed (the previous recovering frame's pose moved by the IMU's prediction)
+  /// disagrees with the frames counted so far: one of them fit the model at the wrong place (a
+  /// wall's well-conditioned wrong fit). The recovery's count starts again from this frame
+  /// (FrameResult::recovery_restarted), the velocity the jump would imply is forgotten, and the
+  /// frames counted before it rejoin the lost stretch, re-placed when the recovery ends. 0: off.
+  /// Measured (bench/README.md): over 54 recoveries in 52 wall scans (`imu-2`, `imu-1`),
+  /// recovering frames that agreed moved at most 32.6 mm from their seed (the velocity dead
+  /// reckoning carried through a long loss; the frame after, at most 8.9 mm); the one wrong fit
+  /// seen moved 67.1 mm.
+  double recovery_agreement_distance = 0.05;
   DeviceOptions device;
   /// Convergence (per-step rotation, rad, and translation, m) that counts while lost or
   /// recovering: an update below it means ICP has settled onto the model (1 mm / 0.06 deg per
@@ -169,6 +180,9 @@ struct FrameResult {
   /// The frame's pose came from a relocalization search (ReconstructorConfig::relocalize_with_imu)
   /// rather than from ICP started at the dead-reckoned pose.
   bool relocalized = false;
+  /// This recovering frame disagreed with the ones counted before it and started the recovery's
+  /// count again (ReconstructorConfig::recovery_agreement_distance).
+  bool recovery_restarted = false;
   /// ICP of this frame against the model (not run for the first frame or known poses).
   bool icp_ran = false;
   IcpResult icp;
@@ -228,7 +242,9 @@ class Reconstructor {
   /// (the distance to a bare wall), the drift starts again from zero there; after a long loss, a
   /// frame's move along directions newly fixed measures the drift before it
   /// (ReconstructorConfig::partial_move_sigma; drift_corrections in src/core/relocalizer.hpp).
-  /// FrameResult keeps the pose each frame had when it was tracked.
+  /// Recovering frames that a later one disagreed with (FrameResult::recovery_restarted) belong
+  /// to the stretch: they are re-estimated with it. FrameResult keeps the pose each frame had
+  /// when it was tracked.
   const Trajectory& trajectory() const;
   const ReconstructorConfig& config() const;
   const DeviceInfo& device() const;

@@ -16,9 +16,11 @@ namespace imufusion {
 /// (Gauss-Newton steps run for the frame, all levels), residual (r, m^2), inliers (n),
 /// weight_sum, condition (kappa), fused (0/1), ms (wall time of the frame), then icp_reliable,
 /// icp_reason, icp_directions (of the 6, those ICP updated), relocalized (0/1: the pose came
-/// from the relocalization search), imu_rotation (0/1: the seed's rotation came from the gyro), imu_coverage,
-/// gyro_bias_x/y/z (rad/s), R_camera_imu_estimated, R_camera_imu_sigma_deg, blocks
-/// (allocated after the frame), tx ty tz qx qy qz qw (T_world_camera).
+/// from the relocalization search), recovery_restarted (0/1: this recovering frame disagreed
+/// with the ones before it and started the recovery's count again), imu_rotation (0/1: the
+/// seed's rotation came from the gyro), imu_coverage, gyro_bias_x/y/z (rad/s),
+/// R_camera_imu_estimated, R_camera_imu_sigma_deg, blocks (allocated after the frame),
+/// tx ty tz qx qy qz qw (T_world_camera).
 std::string frames_csv_header();
 /// One row of frames.csv (no newline). Quality columns are empty when ICP did not run.
 std::string frames_csv_row(const FrameResult& frame, std::uint32_t allocated_blocks);
@@ -32,6 +34,7 @@ struct ScanStatistics {
   std::size_t dead_reckoned = 0;
   std::size_t partial = 0;  // frames with pose source icp_partial (degenerate depth, IMU-aided)
   std::size_t relocalizations = 0;  // frames placed by the relocalization search
+  std::size_t recovery_restarts = 0;  // recovering frames that started the count again
   std::size_t retracked = 0;  // lost frames placed by ICP backward from their recovery
   double mean_icp_iterations = 0;    // over frames where ICP ran
   double median_icp_iterations = 0;  // over frames where ICP ran

@@ -13,7 +13,11 @@
 //   recovering --reliable, not converged-->           recovering   pose: ICP (count unchanged)
 //   recovering --ICP unreliable-->                    lost         pose: dead reckoning, not fused
 //   lost / recovering --ICP partial-->                lost         pose: ICP partial, not fused
+//   recovering --restart_recovery(), then reliable and converged--> recovering, count 1
 //
+// restart_recovery() is the caller's verdict that a recovering frame disagrees with the ones
+// counted before it (ICP settled far from where their poses and the motion since put it): one of
+// them fit the model at the wrong place, so the count starts again from this frame.
 // "ICP partial" (IcpResult::partial) is an IMU-seeded alignment that passed every test but the
 // condition number: ICP moved the pose along the directions the depth constrains and the IMU's
 // prediction stands in the others. Fusing it is safe because the unconstrained directions are
@@ -69,6 +73,9 @@ class TrackingStateMachine {
   /// `partial_may_fuse`: whether a partial frame may still be fused while tracking.
   TrackingDecision step(bool icp_reliable, bool converged, bool icp_partial = false,
                         bool partial_may_fuse = true);
+  /// While recovering: the frames counted so far disagree with the next one, which starts the
+  /// count again (step() then counts it as the first good frame). No effect in other states.
+  void restart_recovery();
   /// Back to before the first frame.
   void reset();
 

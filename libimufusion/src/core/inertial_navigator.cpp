@@ -233,6 +233,8 @@ InertialStatus InertialNavigator::status() const {
   return out;
 }
 
+void InertialNavigator::forget_velocity() { state_->velocity.reset_velocity(); }
+
 void InertialNavigator::reset() {
   state_->has_last = false;
   state_->velocity.reset();

@@ -76,6 +76,10 @@ TrackingDecision TrackingStateMachine::step(bool icp_reliable, bool converged, b
   return {TrackingStatus::kRecovering, PoseSource::kIcp, false, good_frames_, false};
 }
 
+void TrackingStateMachine::restart_recovery() {
+  if (started_ && status_ == TrackingStatus::kRecovering) good_frames_ = 0;
+}
+
 void TrackingStateMachine::reset() {
   started_ = false;
   status_ = TrackingStatus::kTracking;

@@ -389,6 +389,7 @@ struct Reconstructor::Impl {
     FrameTimings scratch;
     for (auto it = c.depth.rbegin(); it != c.depth.rend(); ++it) {
       const std::size_t i = it->first;
+      if (i >= at.index) continue;  // the recovering frames' own, kept for restart_pending()
       if (i + 1 != at.index || i <= c.anchor) break;
       const Eigen::Isometry3d& dead = trajectory[i].T_world_camera;
       const Eigen::Isometry3d seed = at.corrected * at.estimate.inverse() * dead;
@@ -408,6 +409,38 @@ struct Reconstructor::Impl {
       out.placed.emplace_back(i, at.corrected);
     }
     return out;
+  }
+
+  void keep_depth(std::deque<std::pair<std::size_t, DepthImage>>& kept, std::size_t index,
+                  const DepthImage& depth) const {
+    kept.emplace_back(index, depth);
+    if (kept.size() > static_cast<std::size_t>(config.retrack_lost_frames)) kept.pop_front();
+  }
+
+  // ReconstructorConfig::recovery_agreement_distance: whether this recovering frame's ICP settled
+  // too far from its seed to agree with the frames counted before it.
+  bool disagrees_with_recovery(const IcpResult& icp, const FrameResult& r,
+                               const Eigen::Isometry3d& T_world_seed,
+                               const Eigen::Isometry3d& T_world_icp) const {
+    const double limit = config.recovery_agreement_distance;
+    return limit > 0 && machine.status() == TrackingStatus::kRecovering && pending.has_value() &&
+           r.imu.translation_predicted && icp.reliable && icp.quality.converged &&
+           (T_world_icp.translation() - T_world_seed.translation()).norm() > limit;
+  }
+
+  // Frame `index` restarted the recovery: the recovering frames before it (pending->index up to
+  // index - 1) fit the model at the wrong place. They go back to where dead reckoning would have
+  // put them (their ICP chain moved by the first one's correction, undone), and the stretch now
+  // ends at this frame, seeded at `T_world_seed`, placed at `T_world_icp`.
+  void restart_pending(std::size_t index, const Eigen::Isometry3d& T_world_seed,
+                       const Eigen::Isometry3d& T_world_icp) {
+    if (!pending) return;
+    const Eigen::Isometry3d undo = pending->estimate * pending->corrected.inverse();
+    for (std::size_t i = pending->index; i < index; ++i)
+      trajectory[i].T_world_camera = undo * trajectory[i].T_world_camera;
+    pending->index = index;
+    pending->estimate = undo * T_world_seed;
+    pending->corrected = T_world_icp;
   }
 
   // See Reconstructor::trajectory().
@@ -571,14 +604,21 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
     }
     r.icp_ran = true;
     r.icp = *icp;
+    r.recovery_restarted = m.disagrees_with_recovery(*icp, r, T_world_seed, T_world_icp);
+    if (r.recovery_restarted) m.machine.restart_recovery();
     decision = m.machine.step(icp->reliable, icp->quality.converged, icp->partial, partial_may_fuse);
     m.seed_gate_holding = decision.status == TrackingStatus::kTracking && icp->quality.seed_gated_directions > 0;
     const bool icp_pose = decision.source == PoseSource::kIcp || decision.source == PoseSource::kIcpPartial;
     r.T_world_camera = icp_pose ? T_world_icp : T_world_seed;
-    // A relocalized frame's pose did not come from the motion since the previous frame.
-    if (m.navigator)
+    // A pair measures the motion only when both poses came from ICP against the same model:
+    // the first frame placed after a loss (relocalized or not) also undoes dead reckoning's
+    // drift, and a restarted recovery's frame undoes a wrong fit.
+    if (m.navigator) {
       m.navigator->observe(previous.timestamp, timestamp, previous.T_world_camera, r.T_world_camera,
-                           decision.source == PoseSource::kIcp && !r.relocalized);
+                           decision.source == PoseSource::kIcp && !was_lost && !r.recovery_restarted);
+      if (r.recovery_restarted) m.navigator->forget_velocity();
+    }
+    if (r.recovery_restarted) m.restart_pending(r.index, T_world_seed, r.T_world_camera);
     if (was_lost && decision.status == TrackingStatus::kRecovering) {
       // The correction is measured from where dead reckoning put the frame (a partial pose's
       // rotation kept, as in the stretch): the frames before reach it by dead reckoning alone.
@@ -602,9 +642,11 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
     m.partial_fixed.clear();
     m.lost_depth.clear();
   } else if (m.config.retrack_lost_frames > 0) {
-    m.lost_depth.emplace_back(r.index, depth);
-    if (m.lost_depth.size() > static_cast<std::size_t>(m.config.retrack_lost_frames)) m.lost_depth.pop_front();
+    m.keep_depth(m.lost_depth, r.index, depth);
   }
+  // A recovering frame rejoins the lost stretch if a later one disagrees with it (restart_pending).
+  if (decision.status == TrackingStatus::kRecovering && m.pending && m.config.retrack_lost_frames > 0)
+    m.keep_depth(m.pending->depth, r.index, depth);
   r.status = decision.status;
   r.source = decision.source;
   r.recovered = decision.recovered;

@@ -31,7 +31,7 @@ double median_of(std::vector<double> values) {
 
 std::string frames_csv_header() {
   return "timestamp,status,pose_source,icp_iterations,residual,inliers,weight_sum,condition,fused,ms,"
-         "icp_reliable,icp_reason,icp_directions,imu_disagreement,relocalized,imu_rotation,imu_coverage,gyro_bias_x,gyro_bias_y,gyro_bias_z,"
+         "icp_reliable,icp_reason,icp_directions,imu_disagreement,relocalized,recovery_restarted,imu_rotation,imu_coverage,gyro_bias_x,gyro_bias_y,gyro_bias_z,"
          "R_camera_imu_estimated,R_camera_imu_sigma_deg,blocks,tx,ty,tz,qx,qy,qz,qw";
 }
 
@@ -50,7 +50,7 @@ std::string frames_csv_row(const FrameResult& f, std::uint32_t allocated_blocks)
                          std::to_string(f.icp.quality.constrained_directions) + "," +
                          format("%.3g", f.icp.quality.seed_disagreement)
                    : std::string(",,,");
-  row += std::string(",") + (f.relocalized ? "1" : "0");
+  row += std::string(",") + (f.relocalized ? "1" : "0") + "," + (f.recovery_restarted ? "1" : "0");
   row += std::string(",") + (f.imu.rotation_from_imu ? "1" : "0") + "," + format("%.3f", f.imu.covered_fraction);
   for (int i = 0; i < 3; ++i) row += "," + format("%.6g", f.inertial.gyro_bias[i]);
   row += std::string(",") + (f.inertial.R_camera_imu_estimated ? "1" : "0") + "," +
@@ -77,6 +77,7 @@ ScanStatistics summarize_scan(const std::vector<FrameResult>& frames) {
     if (f.source == PoseSource::kDeadReckoning) ++s.dead_reckoned;
     if (f.source == PoseSource::kIcpPartial) ++s.partial;
     if (f.relocalized) ++s.relocalizations;
+    if (f.recovery_restarted) ++s.recovery_restarts;
     s.retracked += f.retracked;
     if (f.icp_ran) iterations.push_back(f.icp.quality.iterations);
     ms.push_back(f.timings.total_ms);
