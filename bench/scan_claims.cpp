@@ -16,8 +16,7 @@
 // Printed per scan and setting: ATE RMSE (mm), lost and recovering frames, recoveries and frames
 // to recover, lost frames placed backward from their recovery, recovering frames that restarted
 // the recovery's count (ReconstructorConfig::recovery_agreement_distance), median / mean ICP
-// iterations,
-// whether every frame after the wall stretch tracks, and the frame rate.
+// iterations, whether every frame after the wall stretch tracks, and the frame rate.
 //
 // Synthetic scans with an IMU also check the inertial estimates' reported sigmas, which the
 // re-estimation of a lost stretch takes as its prior: at the last frame ICP fixed in full before

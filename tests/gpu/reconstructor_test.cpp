@@ -84,6 +84,22 @@ class ReconstructorTest : public test::GpuTest {
     return result.ok() ? result->stats.rmse : std::numeric_limits<double>::infinity();
   }
 
+  // Position error of a pose against the ground truth, in the scan's world (the first frame's
+  // camera); infinity where the truth has no pose at its time.
+  double position_error(const StampedPose& pose) const {
+    const StampedPose* truth = find_pose(reader_->ground_truth(), pose.timestamp);
+    if (truth == nullptr) return std::numeric_limits<double>::infinity();
+    const Eigen::Isometry3d T0 = reader_->ground_truth().front().T_world_camera;
+    return ((T0.inverse() * truth->T_world_camera).translation() - pose.T_world_camera.translation()).norm();
+  }
+
+  // The first frame that ended a loss (results.size() when none did).
+  static std::size_t first_recovered(const std::vector<FrameResult>& results, std::size_t from = 0) {
+    std::size_t back = from;
+    while (back < results.size() && !results[back].recovered) ++back;
+    return back;
+  }
+
   static fs::path* root_;
   static bool synth_ok_;
   std::optional<SequenceReader> reader_;
@@ -237,13 +253,7 @@ TEST_F(ReconstructorTest, DeadReckonsThroughBlankFramesAndRecoversOntoTheModel) 
 // motion over one frame is 20 cm off, within ICP's reach, where its position is metres off.
 TEST_F(ReconstructorTest, PlacesTheLostFramesBackwardFromTheRecovery) {
   const std::size_t blank_begin = 14, blank_end = 16;
-  const Eigen::Isometry3d T0 = reader_->ground_truth().front().T_world_camera;
-  const auto error = [&](const StampedPose& pose) {
-    const StampedPose* truth = find_pose(reader_->ground_truth(), pose.timestamp);
-    if (truth == nullptr) return std::numeric_limits<double>::infinity();
-    const Eigen::Vector3d true_position = (T0.inverse() * truth->T_world_camera).translation();
-    return (true_position - pose.T_world_camera.translation()).norm();
-  };
+  const auto error = [&](const StampedPose& pose) { return position_error(pose); };
   const auto scan = [&](int retrack_lost_frames, std::vector<FrameResult>& results) {
     ReconstructorConfig c = config(true, 2);
     c.retrack_lost_frames = retrack_lost_frames;
@@ -269,8 +279,7 @@ TEST_F(ReconstructorTest, PlacesTheLostFramesBackwardFromTheRecovery) {
   std::vector<FrameResult> results;
   Reconstructor rec = scan(150, results);
   ASSERT_EQ(results.size(), frames_.size());
-  std::size_t back = blank_begin;
-  while (back < results.size() && !results[back].recovered) ++back;
+  const std::size_t back = first_recovered(results, blank_begin);
   ASSERT_LT(back, results.size()) << "tracking never resumed";
   // Frames settling onto the model after the loss keep the pyramid (the seed carries the drift).
   for (std::size_t i = blank_end; i <= back; ++i)
@@ -331,21 +340,11 @@ TEST_F(ReconstructorTest, ARecoveringFrameFitAtTheWrongPlaceDoesNotEndTheLoss) {
     }
     return rec;
   };
-  const Eigen::Isometry3d T0 = reader_->ground_truth().front().T_world_camera;
-  const auto error = [&](const StampedPose& pose) {
-    const StampedPose* truth = find_pose(reader_->ground_truth(), pose.timestamp);
-    if (truth == nullptr) return std::numeric_limits<double>::infinity();
-    return ((T0.inverse() * truth->T_world_camera).translation() - pose.T_world_camera.translation()).norm();
-  };
+  const auto error = [&](const StampedPose& pose) { return position_error(pose); };
   const auto worst = [&](const Trajectory& trajectory) {
     double e = 0;
     for (std::size_t i = blank_begin; i <= blank_end; ++i) e = std::max(e, error(trajectory[i]));
     return e;
-  };
-  const auto first_recovered = [](const std::vector<FrameResult>& results) {
-    std::size_t back = 0;
-    while (back < results.size() && !results[back].recovered) ++back;
-    return back;
   };
   const auto recovery = static_cast<std::size_t>(ReconstructorConfig{}.tracking.recovery_frames);
 

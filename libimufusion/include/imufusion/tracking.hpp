@@ -18,6 +18,7 @@
 // restart_recovery() is the caller's verdict that a recovering frame disagrees with the ones
 // counted before it (ICP settled far from where their poses and the motion since put it): one of
 // them fit the model at the wrong place, so the count starts again from this frame.
+//
 // "ICP partial" (IcpResult::partial) is an IMU-seeded alignment that passed every test but the
 // condition number: ICP moved the pose along the directions the depth constrains and the IMU's
 // prediction stands in the others. Fusing it is safe because the unconstrained directions are
