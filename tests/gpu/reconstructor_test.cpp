@@ -372,6 +372,44 @@ TEST_F(ReconstructorTest, ARecoveringFrameFitAtTheWrongPlaceDoesNotEndTheLoss) {
   EXPECT_GT(worst(unchecked.trajectory()), 0.03);
 }
 
+// A recovery that breaks: after three blank frames during which the accelerometer read a jolt
+// (dead reckoning drifts centimetres), one frame with depth is placed on the model, then another
+// blank frame loses the scan again before the recovery's count is reached. The recovering
+// frame keeps its ICP pose and the next loss is dead-reckoned from it, so the stretch before
+// it is re-estimated to meet it at once, not left where dead reckoning drifted.
+TEST_F(ReconstructorTest, ABrokenRecoveryStillReEstimatesTheStretchBeforeIt) {
+  const std::size_t blank_begin = 14, placed = 17, broken = 18;
+  ReconstructorConfig c = config(true, 2);
+  c.inertial.gravity_min_time = 0.3;  // the accelerometer in use (and jolted) within this short scan
+  Reconstructor rec = make(c);
+  std::vector<FrameResult> results;
+  for (std::size_t i = 0; i < frames_.size(); ++i) {
+    const Frame& f = frames_[i];
+    DepthImage depth = f.depth;
+    if ((i >= blank_begin && i < placed) || i == broken) std::fill(depth.data.begin(), depth.data.end(), 0);
+    std::vector<ImuSample> imu = f.imu;
+    if (i == blank_begin)
+      for (ImuSample& sample : imu) sample.accel.x() += 12;  // 0.4 m/s over the frame
+    auto r = rec.track_and_fuse(f.timestamp, depth, nullptr, imu);
+    ASSERT_TRUE(r.ok()) << r.error().describe();
+    results.push_back(*r);
+  }
+  EXPECT_EQ(results[placed].status, TrackingStatus::kRecovering);
+  EXPECT_LT(position_error({results[placed].timestamp, results[placed].T_world_camera}), 0.01);
+  EXPECT_EQ(results[broken].status, TrackingStatus::kLost);
+  const std::size_t back = first_recovered(results, broken);
+  ASSERT_LT(back, results.size()) << "tracking never resumed";
+  for (std::size_t i = back; i < results.size(); ++i)
+    EXPECT_EQ(results[i].status, TrackingStatus::kTracking) << "frame " << i;
+  // Tracked, the lost frames carry dead reckoning's drift; re-estimated, they meet the frames
+  // ICP placed on either side.
+  for (std::size_t i = blank_begin + 1; i < placed; ++i)
+    EXPECT_GT(position_error({results[i].timestamp, results[i].T_world_camera}), 0.015) << "frame " << i;
+  for (std::size_t i = blank_begin; i <= broken; ++i)
+    EXPECT_LT(position_error(rec.trajectory()[i]), 0.01) << "frame " << i;
+  EXPECT_EQ(summarize_scan(results).recoveries, 1u);
+}
+
 TEST_F(ReconstructorTest, KnownPosesAreFusedWithoutTracking) {
   Reconstructor rec = make(config(true, 2));
   for (const Frame& f : frames_) {

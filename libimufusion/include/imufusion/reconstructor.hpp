@@ -175,7 +175,8 @@ struct FrameResult {
   PoseSource source = PoseSource::kInitial;
   bool fused = false;
   bool recovered = false;  // this frame ended a loss
-  /// Frames of the loss this recovery placed by ICP backward (their poses in trajectory()).
+  /// Frames of the loss this recovery (or this frame's break of one) placed by ICP backward
+  /// (their poses in trajectory()).
   std::size_t retracked = 0;
   /// The frame's pose came from a relocalization search (ReconstructorConfig::relocalize_with_imu)
   /// rather than from ICP started at the dead-reckoned pose.
@@ -243,8 +244,10 @@ class Reconstructor {
   /// frame's move along directions newly fixed measures the drift before it
   /// (ReconstructorConfig::partial_move_sigma; drift_corrections in src/core/relocalizer.hpp).
   /// Recovering frames that a later one disagreed with (FrameResult::recovery_restarted) belong
-  /// to the stretch: they are re-estimated with it. FrameResult keeps the pose each frame had
-  /// when it was tracked.
+  /// to the stretch: they are re-estimated with it. A recovery that breaks (a recovering frame
+  /// fails, the scan is lost again) ends the stretch before it the same way, at its recovering
+  /// frames: they keep their ICP poses, from which the next lost frames are dead-reckoned.
+  /// FrameResult keeps the pose each frame had when it was tracked.
   const Trajectory& trajectory() const;
   const ReconstructorConfig& config() const;
   const DeviceInfo& device() const;

@@ -443,6 +443,24 @@ struct Reconstructor::Impl {
     pending->corrected = T_world_icp;
   }
 
+  // The lost stretch `c` ends at frames ICP placed (a recovery, or a broken one's frames): its
+  // kept frames are placed backward, the rest re-estimated (see Reconstructor::trajectory()).
+  // `r` is the current frame, already in the trajectory: the reference goes back to its pose.
+  Status settle_lost_stretch(const PendingCorrection& c, FrameResult& r) {
+    const auto t1 = Clock::now();
+    auto retracked = retrack(c);
+    if (!retracked) return retracked.error();
+    if (retracked->moved_reference) IMUFUSION_RETURN_IF_ERROR(update_reference(r.T_world_camera, r.timings));
+    if (config.retracked_frame_sigma > 0)
+      correct_lost_stretch(c, retracked->placed);
+    else
+      correct_lost_stretch(retracked->correction, {});
+    for (const auto& [index, pose] : retracked->placed) trajectory[index].T_world_camera = pose;
+    r.retracked = retracked->placed.size();
+    r.timings.retrack_ms = ms_since(t1);
+    return {};
+  }
+
   // See Reconstructor::trajectory().
   // `placed`: the frames the retrack placed (c.index - 1 and down, newest first), each measuring
   // the error there with ReconstructorConfig::retracked_frame_sigma; they keep their placed
@@ -568,6 +586,7 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
   IMUFUSION_RETURN_IF_ERROR(m.preprocess(depth, color, r.timings));
 
   TrackingDecision decision;
+  std::optional<Impl::PendingCorrection> broken;
   if (!m.machine.started() || !m.has_reference) {
     decision = m.machine.start();
     r.T_world_camera = m.config.initial_pose;
@@ -627,7 +646,12 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
       m.pending = Impl::PendingCorrection{m.last_constrained_index, r.index, T_world_dead, r.T_world_camera,
                                           m.constrained_prior, m.partial_fixed, std::move(m.lost_depth)};
     }
-    if (decision.status == TrackingStatus::kLost) m.pending.reset();
+    // A broken recovery: its frames keep the poses ICP placed them at, and the frames lost after
+    // them are dead-reckoned from there, so the stretch before is re-estimated to meet them now.
+    if (decision.status == TrackingStatus::kLost && m.pending) {
+      broken = std::move(m.pending);
+      m.pending.reset();
+    }
     // Taken as exact only while dead reckoning is still within ICP's reach: from a seed further
     // off, partial ICP may settle on the wrong stretch of the model in the directions it fixes
     // too, so there its move is a measurement to be checked (ReconstructorConfig::partial_move_sigma).
@@ -660,19 +684,10 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
   IMUFUSION_RETURN_IF_ERROR(m.update_reference(r.T_world_camera, r.timings));
   m.trajectory.push_back({timestamp, r.T_world_camera});
   if (decision.recovered && m.pending) {
-    const auto t1 = Clock::now();
-    auto retracked = m.retrack(*m.pending);
-    if (!retracked) return retracked.error();
-    // Back to this frame's reference for the next frame.
-    if (retracked->moved_reference) IMUFUSION_RETURN_IF_ERROR(m.update_reference(r.T_world_camera, r.timings));
-    if (m.config.retracked_frame_sigma > 0)
-      m.correct_lost_stretch(*m.pending, retracked->placed);
-    else
-      m.correct_lost_stretch(retracked->correction, {});
-    for (const auto& [index, pose] : retracked->placed) m.trajectory[index].T_world_camera = pose;
-    r.retracked = retracked->placed.size();
+    IMUFUSION_RETURN_IF_ERROR(m.settle_lost_stretch(*m.pending, r));
     m.pending.reset();
-    r.timings.retrack_ms = ms_since(t1);
+  } else if (broken) {
+    IMUFUSION_RETURN_IF_ERROR(m.settle_lost_stretch(*broken, r));
   }
   r.inertial = m.inertial_status();
   r.timings.total_ms = ms_since(t0);
