@@ -13,8 +13,8 @@
 //   imu-2   gyro seed, at most 2 (imufusion-scan's default with an IMU)
 //   icp-10  no IMU, at most 10
 //   icp-30  no IMU, at most 30 (the paper's comparison)
-// Printed per scan and setting: ATE RMSE (mm), lost and recovering frames, recoveries and frames
-// to recover, lost frames placed backward from their recovery, recovering frames that restarted
+// Printed per scan and setting: ATE RMSE (mm), lost and recovering frames, recoveries, broken
+// recoveries (a recovering frame followed by a lost one) and frames to recover, lost frames placed backward from their recovery, recovering frames that restarted
 // the recovery's count (ReconstructorConfig::recovery_agreement_distance), median / mean ICP
 // iterations, whether every frame after the wall stretch tracks, and the frame rate.
 //
@@ -236,9 +236,9 @@ void run_setting(const Loaded& seq, const Setting& setting, const Options& opt) 
   }
   std::string recover;
   for (std::size_t k : s.recovery_frames) recover += (recover.empty() ? "" : "/") + std::to_string(k);
-  std::printf("| %s | %s | %.1f | %zu | %zu | %zu | %s | %zu | %zu | %.1f | %.2f | %s | %.1f |\n", seq.label.c_str(),
-              setting.name, ate_mm, s.lost, s.recovering, s.recoveries, recover.empty() ? "-" : recover.c_str(),
-              s.retracked, s.recovery_restarts, s.median_icp_iterations, s.mean_icp_iterations, after.c_str(), s.fps);
+  std::printf("| %s | %s | %.1f | %zu | %zu | %zu | %zu | %s | %zu | %zu | %.1f | %.2f | %s | %.1f |\n",
+              seq.label.c_str(), setting.name, ate_mm, s.lost, s.recovering, s.recoveries, s.broken_recoveries,
+              recover.empty() ? "-" : recover.c_str(), s.retracked, s.recovery_restarts, s.median_icp_iterations, s.mean_icp_iterations, after.c_str(), s.fps);
   std::fflush(stdout);
 }
 
@@ -254,8 +254,8 @@ int main(int argc, char** argv) {
                  "                   [--recovery-agreement-distance M] [--work DIR]\n";
     return 2;
   }
-  std::printf("| scan | setting | ATE mm | lost | recovering | recoveries | frames to recover | placed backward | restarts | median it | mean it | all tracking after the stretch | fps |\n");
-  std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+  std::printf("| scan | setting | ATE mm | lost | recovering | recoveries | broken | frames to recover | placed backward | restarts | median it | mean it | all tracking after the stretch | fps |\n");
+  std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
   for (const std::string& name : opt.scenes) {
     const auto kind = synth::parse_scene_kind(name);
     if (!kind) {

@@ -236,6 +236,7 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
   j["dead_reckoned_frames"] = stats.dead_reckoned;
   j["partial_icp_frames"] = stats.partial;
   j["recoveries"] = stats.recoveries;
+  j["broken_recoveries"] = stats.broken_recoveries;
   j["relocalizations"] = stats.relocalizations;
   j["recovery_restarts"] = stats.recovery_restarts;
   j["retracked_frames"] = stats.retracked;

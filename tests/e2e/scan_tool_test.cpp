@@ -174,7 +174,9 @@ TEST_F(ScanTool, WallScanWithTheImuRecoversOntoTheModel) {
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const auto rows = read_csv(out / "frames.csv");
   ASSERT_EQ(rows.size(), 330u);
-  std::size_t after = 0, relocalized = 0;
+  std::size_t after = 0, relocalized = 0, broken = 0;
+  for (std::size_t i = 1; i < rows.size(); ++i)
+    if (rows[i - 1].at("status") == "recovering" && rows[i].at("status") == "lost") ++broken;
   for (const Row& row : rows) {
     if (row.at("relocalized") == "1") {
       ++relocalized;
@@ -191,6 +193,7 @@ TEST_F(ScanTool, WallScanWithTheImuRecoversOntoTheModel) {
   EXPECT_GE(summary["recoveries"].get<std::size_t>(), 1u);
   EXPECT_GT(summary["lost_frames"].get<std::size_t>(), 30u);
   EXPECT_EQ(summary["relocalizations"].get<std::size_t>(), relocalized);
+  EXPECT_EQ(summary["broken_recoveries"].get<std::size_t>(), broken);
   // The camera saw the model again for a few frames before the search confirmed it: ICP places
   // them backward from the recovery (12 frames in this scan).
   EXPECT_GT(summary["retracked_frames"].get<std::size_t>(), 0u);

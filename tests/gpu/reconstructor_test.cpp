@@ -407,7 +407,9 @@ TEST_F(ReconstructorTest, ABrokenRecoveryStillReEstimatesTheStretchBeforeIt) {
     EXPECT_GT(position_error({results[i].timestamp, results[i].T_world_camera}), 0.015) << "frame " << i;
   for (std::size_t i = blank_begin; i <= broken; ++i)
     EXPECT_LT(position_error(rec.trajectory()[i]), 0.01) << "frame " << i;
-  EXPECT_EQ(summarize_scan(results).recoveries, 1u);
+  const ScanStatistics stats = summarize_scan(results);
+  EXPECT_EQ(stats.recoveries, 1u);
+  EXPECT_EQ(stats.broken_recoveries, 1u);
 }
 
 TEST_F(ReconstructorTest, KnownPosesAreFusedWithoutTracking) {

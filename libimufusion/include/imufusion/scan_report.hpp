@@ -31,6 +31,7 @@ struct ScanStatistics {
   std::size_t lost = 0;        // frames with status lost
   std::size_t recovering = 0;  // frames with status recovering
   std::size_t recoveries = 0;  // losses that ended in tracking again
+  std::size_t broken_recoveries = 0;  // recovering frames followed by a lost one
   std::size_t dead_reckoned = 0;
   std::size_t partial = 0;  // frames with pose source icp_partial (degenerate depth, IMU-aided)
   std::size_t relocalizations = 0;  // frames placed by the relocalization search

@@ -78,6 +78,8 @@ ScanStatistics summarize_scan(const std::vector<FrameResult>& frames) {
     if (f.source == PoseSource::kIcpPartial) ++s.partial;
     if (f.relocalized) ++s.relocalizations;
     if (f.recovery_restarted) ++s.recovery_restarts;
+    if (i > 0 && f.status == TrackingStatus::kLost && frames[i - 1].status == TrackingStatus::kRecovering)
+      ++s.broken_recoveries;
     s.retracked += f.retracked;
     if (f.icp_ran) iterations.push_back(f.icp.quality.iterations);
     ms.push_back(f.timings.total_ms);
