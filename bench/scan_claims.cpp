@@ -6,7 +6,7 @@
 //               [--sequence DIR [--sequence-frames N]] [--settings imu-1,imu-2,icp-10,icp-30]
 //               [--retrack-lost-frames N] [--max-condition K] [--seed-gate SIGMAS]
 //               [--partial-move-sigma M] [--retracked-frame-sigma M]
-//               [--recovery-agreement-distance M] [--work DIR]
+//               [--recovery-agreement-distance M] [--correct-velocity-after-loss 0|1] [--work DIR]
 //
 // Settings compared, per scan:
 //   imu-1   gyro seed, at most 1 Gauss-Newton step per frame (the paper's IMU setting)
@@ -68,6 +68,7 @@ struct Options {
   double partial_move_sigma = ReconstructorConfig{}.partial_move_sigma;
   double retracked_frame_sigma = ReconstructorConfig{}.retracked_frame_sigma;
   double recovery_agreement_distance = ReconstructorConfig{}.recovery_agreement_distance;
+  bool correct_velocity_after_loss = ReconstructorConfig{}.correct_velocity_after_loss;
   double seed_gate = 0;  // > 0: ReconstructorConfig::seed_gate_with_imu at this IcpConfig::seed_gate_sigmas
 };
 
@@ -103,7 +104,10 @@ bool parse(int argc, char** argv, Options& opt) {
     else if (a == "--retracked-frame-sigma") opt.retracked_frame_sigma = std::atof(v.c_str());
     else if (a == "--recovery-agreement-distance")
       opt.recovery_agreement_distance = std::atof(v.c_str());
-    else if (a == "--settings") opt.settings = split(v);
+    else if (a == "--correct-velocity-after-loss") {
+      if (v != "0" && v != "1") return false;
+      opt.correct_velocity_after_loss = v == "1";
+    } else if (a == "--settings") opt.settings = split(v);
     else return false;
   }
   return (argc % 2) == 1 && opt.frames > 1 && opt.width > 0 && opt.height > 0;
@@ -195,6 +199,7 @@ void run_setting(const Loaded& seq, const Setting& setting, const Options& opt) 
   c.partial_move_sigma = opt.partial_move_sigma;
   c.retracked_frame_sigma = opt.retracked_frame_sigma;
   c.recovery_agreement_distance = opt.recovery_agreement_distance;
+  c.correct_velocity_after_loss = opt.correct_velocity_after_loss;
   c.icp.reliability.max_condition = opt.max_condition;
   if (opt.seed_gate > 0) {
     c.seed_gate_with_imu = true;
@@ -251,7 +256,8 @@ int main(int argc, char** argv) {
                  "                   [--sequence DIR [--sequence-frames N]] [--settings imu-1,imu-2,icp-10,icp-30]\n"
                  "                   [--retrack-lost-frames N] [--max-condition K] [--seed-gate SIGMAS]\n"
                  "                   [--partial-move-sigma M] [--retracked-frame-sigma M]\n"
-                 "                   [--recovery-agreement-distance M] [--work DIR]\n";
+                 "                   [--recovery-agreement-distance M] [--correct-velocity-after-loss 0|1]\n"
+                 "                   [--work DIR]\n";
     return 2;
   }
   std::printf("| scan | setting | ATE mm | lost | recovering | recoveries | broken | frames to recover | placed backward | restarts | median it | mean it | all tracking after the stretch | fps |\n");

@@ -160,14 +160,25 @@ TEST(InertialTranslation, AccelerometerBiasIsEstimatedWhileTheDeviceTurns) {
   EXPECT_LT(with.drift, 0.005);
 }
 
-TEST(InertialTranslation, DeadReckoningHoldsVelocityUntilItsUncertaintyIsTooLarge) {
-  AnalyticMotion m;
-  m.omega_camera.setZero();
+// A constant-velocity navigator given `m`'s samples over [0, seconds].
+InertialNavigator constant_velocity_navigator(const AnalyticMotion& m, const InertialConfig& config, double seconds) {
+  InertialNavigator nav = InertialNavigator::create(config).value();
+  EXPECT_TRUE(nav.add_samples(m.samples(0.0, seconds)).ok());
+  return nav;
+}
+
+InertialConfig constant_velocity_config(const AnalyticMotion& m) {
   InertialConfig config;
   config.T_camera_imu = m.T_camera_imu;
   config.translation = TranslationModel::kConstantVelocity;
-  InertialNavigator nav = InertialNavigator::create(config).value();
-  ASSERT_TRUE(nav.add_samples(m.samples(0.0, 4.0)).ok());
+  return config;
+}
+
+TEST(InertialTranslation, DeadReckoningHoldsVelocityUntilItsUncertaintyIsTooLarge) {
+  AnalyticMotion m;
+  m.omega_camera.setZero();
+  const InertialConfig config = constant_velocity_config(m);
+  InertialNavigator nav = constant_velocity_navigator(m, config, 4.0);
   const double dt = 1.0 / 30.0;
   Eigen::Isometry3d pose = m.pose(0.0);
   int last_predicted = -1;
@@ -219,6 +230,28 @@ TEST(InertialTranslation, ResetAndForeignStartTimesPredictNoTranslation) {
   EXPECT_FALSE(nav.predict(0.2, 0.3).translation_predicted);
   EXPECT_TRUE(nav.predict(0.2, 0.3).rotation_from_imu);
   EXPECT_EQ(nav.status().gyro_bias, bias);
+}
+
+// A velocity correction measured elsewhere (after a loss, from the drift it showed) moves the
+// next prediction by the correction over the interval; with no velocity there is nothing to
+// correct.
+TEST(InertialTranslation, ACorrectedVelocityMovesTheNextPrediction) {
+  AnalyticMotion m;
+  m.omega_camera.setZero();
+  InertialNavigator nav = constant_velocity_navigator(m, constant_velocity_config(m), 2.0);
+  const double dt = 1.0 / 30.0;
+  for (int k = 1; k <= 5; ++k) nav.observe((k - 1) * dt, k * dt, m.pose((k - 1) * dt), m.pose(k * dt), true);
+  const MotionPrediction before = nav.predict(5 * dt, 6 * dt);
+  ASSERT_TRUE(before.translation_predicted);
+  const Eigen::Vector3d dv(0.2, -0.1, 0.05);  // world
+  nav.correct_velocity(dv);
+  const MotionPrediction after = nav.predict(5 * dt, 6 * dt);
+  ASSERT_TRUE(after.translation_predicted);
+  EXPECT_LT((nav.status().velocity_world - (m.v0 + dv)).norm(), 1e-9);
+  EXPECT_LT((after.T_a_b.translation() - before.T_a_b.translation() - m.R0.transpose() * dv * dt).norm(), 1e-9);
+  nav.forget_velocity();
+  nav.correct_velocity(dv);
+  EXPECT_FALSE(nav.predict(5 * dt, 6 * dt).translation_predicted);
 }
 
 TEST(InertialTranslation, ModelNamesRoundTrip) {

@@ -287,6 +287,54 @@ TEST(DriftCorrections, FixedDirectionsRestartTheDriftThere) {
   EXPECT_NEAR(c[10].translation.x(), 0.0, 1e-12);  // inside the fixed second
 }
 
+// The velocity error dead reckoning carries out of the stretch, from the same fit: a velocity
+// error alone drifts linearly and ends at the end error over T, an accelerometer bias error
+// alone quadratically and ends at twice that, a gyro bias error's tilt at the integral of its
+// acceleration. Where partial ICP fixed a direction, the position restarts there but the
+// velocity error runs on. An end error the prior cannot explain gives none.
+TEST(DriftCorrections, TheEndVelocityIsTheRateTheErrorGrewAtTheEnd) {
+  const double T = 4.0;
+  const Eigen::Vector3d g(0.0, 0.0, -9.81), zero = Eigen::Vector3d::Zero();
+  std::vector<StretchFrame> frames = stretch_frames(T, 1.0 / 30.0);
+  const Eigen::Vector3d translation(0.3, -0.2, 0.1);
+  DriftPrior velocity_only, bias_only, both;
+  velocity_only.velocity_sigma = both.velocity_sigma = 0.1;
+  bias_only.gravity_bias_covariance = both.gravity_bias_covariance = accel_bias_covariance(0.05);
+  EXPECT_LT((*drift_end_velocity(frames, T, translation, zero, velocity_only) - translation / T).norm(), 1e-9);
+  EXPECT_LT((*drift_end_velocity(frames, T, translation, zero, bias_only) - 2 * translation / T).norm(), 1e-9);
+  const double share = drift_end_velocity(frames, T, translation, zero, both)->dot(translation) /
+                       (translation.squaredNorm() / T);
+  EXPECT_GT(share, 1.0);
+  EXPECT_LT(share, 2.0);
+
+  DriftPrior gyro_bias;
+  gyro_bias.gravity_world = g;
+  gyro_bias.gyro_bias_sigma = 0.003;
+  const Eigen::Vector3d delta_T(0.01, -0.02, 0.005);
+  const auto truth = simulate_drift(frames, T, [&](double s) -> Eigen::Vector3d { return delta_T * s / T; }, g,
+                                    zero, zero);
+  // -(delta(s) x g) with delta linear, integrated over [0, T].
+  EXPECT_LT((*drift_end_velocity(frames, T, truth.back().translation, delta_T, gyro_bias) + delta_T.cross(g) * T / 2)
+                .norm(),
+            1e-9);
+
+  const Eigen::Vector3d velocity_error(0.12, -0.05, 0.03);
+  for (StretchFrame& f : frames)
+    if (f.s <= 1.0) f.fixed(0, 0) = 1.0;
+  const auto fixed_truth = simulate_drift(frames, T, [](double) { return Eigen::Vector3d::Zero(); }, zero,
+                                          velocity_error, zero);
+  EXPECT_LT((*drift_end_velocity(frames, T, fixed_truth.back().translation, zero, velocity_only) - velocity_error).norm(),
+            1e-9);
+  EXPECT_FALSE(drift_end_velocity(frames, 0.0, translation, zero, velocity_only).has_value());
+  // 30 cm in a fifth of a second: 1.5 m/s where the prior allows 0.1 m/s per axis (chi-square
+  // 350 against 22.7 for 6 degrees of freedom). Half of it, 0.75 m/s, is still too much (87.5);
+  // a twentieth, 75 mm/s, is within it (0.87).
+  const std::vector<StretchFrame> short_stretch = stretch_frames(0.2, 1.0 / 30.0);
+  EXPECT_FALSE(drift_end_velocity(short_stretch, 0.2, translation, zero, velocity_only).has_value());
+  EXPECT_FALSE(drift_end_velocity(short_stretch, 0.2, 0.5 * translation, zero, velocity_only).has_value());
+  EXPECT_TRUE(drift_end_velocity(short_stretch, 0.2, 0.05 * translation, zero, velocity_only).has_value());
+}
+
 // Biases are constant in the sensor frame: for a camera that turns a full circle during the
 // stretch, a gyro bias error first tilts the world one way and then undoes it, and an
 // accelerometer bias error pushes one way, then the other. Simulated with sensor-frame biases

@@ -198,6 +198,9 @@ class InertialNavigator {
   /// the last frame, gravity and the calibration. Translation is predicted again once tracked
   /// pairs have measured the velocity.
   void forget_velocity();
+  /// Adds `dv` (world, m/s) to the velocity (a correction measured elsewhere); nothing when
+  /// there is no velocity.
+  void correct_velocity(const Eigen::Vector3d& dv);
   /// Forgets the tracking memory (last frame, velocity, gravity: all tied to the tracked world
   /// frame); keeps the samples and the calibration (bias, mounting rotation).
   void reset();

@@ -141,6 +141,13 @@ struct ReconstructorConfig {
   /// reckoning carried through a long loss; the frame after, at most 8.9 mm); the one wrong fit
   /// seen moved 67.1 mm.
   double recovery_agreement_distance = 0.05;
+  /// The first frame placed after a loss measures how far dead reckoning drifted; the drift
+  /// model (see trajectory()) turns that into the velocity error dead reckoning carried out of
+  /// the loss, which is taken off the navigator's velocity before the next frame is predicted.
+  /// Not where the drift is more than the model's prior allows (chi-square above its 99.9th
+  /// percentile: a pose already off when the loss began, as after a slide along a wall, whose
+  /// error is no velocity). Off: the next frame is seeded with the dead-reckoned velocity.
+  bool correct_velocity_after_loss = true;
   DeviceOptions device;
   /// Convergence (per-step rotation, rad, and translation, m) that counts while lost or
   /// recovering: an update below it means ICP has settled onto the model (1 mm / 0.06 deg per

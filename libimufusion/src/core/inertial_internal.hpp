@@ -227,6 +227,10 @@ class VelocityFilter {
   const GravityBiasEstimator& gravity() const { return gravity_; }
   /// Forgets the velocity (a break in the frame chain); keeps gravity.
   void reset_velocity();
+  /// Adds `dv` (world, m/s) to the velocity, where there is one.
+  void correct_velocity(const Eigen::Vector3d& dv) {
+    if (initialized_) v_ += dv;
+  }
   /// Forgets velocity and gravity.
   void reset();
 

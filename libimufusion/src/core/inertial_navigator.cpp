@@ -235,6 +235,8 @@ InertialStatus InertialNavigator::status() const {
 
 void InertialNavigator::forget_velocity() { state_->velocity.reset_velocity(); }
 
+void InertialNavigator::correct_velocity(const Eigen::Vector3d& dv) { state_->velocity.correct_velocity(dv); }
+
 void InertialNavigator::reset() {
   state_->has_last = false;
   state_->velocity.reset();

@@ -169,11 +169,31 @@ std::vector<TranslationCandidate> merge_candidates(const std::vector<Translation
   return out;
 }
 
-std::vector<StretchCorrection> drift_corrections(const std::vector<StretchFrame>& frames, double T,
-                                                 const Eigen::Vector3d& end_translation,
-                                                 const Eigen::Vector3d& end_rotation, const DriftPrior& prior) {
-  std::vector<StretchCorrection> out(frames.size(), StretchCorrection{end_translation, end_rotation});
-  if (!(T > 0)) return out;
+namespace {
+
+// The chi-square distribution's 99.9th percentile for `dof` degrees of freedom (Wilson and
+// Hilferty's cube-root normal approximation: 22.7 for 6, where the exact value is 22.5).
+double chi_square_999(Eigen::Index dof) {
+  if (dof <= 0) return 0;
+  const double k = static_cast<double>(dof), z = 3.0902;  // the normal's 99.9th percentile
+  const double c = 1.0 - 2.0 / (9.0 * k) + z * std::sqrt(2.0 / (9.0 * k));
+  return k * c * c * c;
+}
+
+// drift_corrections and drift_end_velocity: the frames' corrections and the velocity error at T.
+struct DriftFit {
+  std::vector<StretchCorrection> corrections;
+  Eigen::Vector3d end_velocity = Eigen::Vector3d::Zero();
+  double chi2 = 0;  // of the end error and the measurements taken, under the prior
+  Eigen::Index dof = 0;
+};
+
+DriftFit fit_drift(const std::vector<StretchFrame>& frames, double T, const Eigen::Vector3d& end_translation,
+                   const Eigen::Vector3d& end_rotation, const DriftPrior& prior) {
+  DriftFit result;
+  std::vector<StretchCorrection>& out = result.corrections;
+  out.assign(frames.size(), StretchCorrection{end_translation, end_rotation});
+  if (!(T > 0)) return result;
   // The Gaussian unknowns z: gyro bias error (3, camera frame), start velocity error (3),
   // gravity error (3), accelerometer bias error (3, camera frame), then the gyro noise's rotation
   // increment over each interval between frames (3 each). Their prior covariance Sigma is
@@ -350,7 +370,27 @@ std::vector<StretchCorrection> drift_corrections(const std::vector<StretchFrame>
       [&](std::size_t k) -> Eigen::Vector3d { return z.segment<3>(noise_index(k)); },
       [&](std::size_t k, Eigen::Vector3d& position) { position -= frames[k].moved; },
       [&](std::size_t k) { out[k] = StretchCorrection{p, r}; });
-  return out;
+  result.end_velocity = v;
+  result.chi2 = best.chi2;
+  result.dof = best.dof;
+  return result;
+}
+
+}  // namespace
+
+std::vector<StretchCorrection> drift_corrections(const std::vector<StretchFrame>& frames, double T,
+                                                 const Eigen::Vector3d& end_translation,
+                                                 const Eigen::Vector3d& end_rotation, const DriftPrior& prior) {
+  return fit_drift(frames, T, end_translation, end_rotation, prior).corrections;
+}
+
+std::optional<Eigen::Vector3d> drift_end_velocity(const std::vector<StretchFrame>& frames, double T,
+                                                  const Eigen::Vector3d& end_translation,
+                                                  const Eigen::Vector3d& end_rotation, const DriftPrior& prior) {
+  if (!(T > 0)) return std::nullopt;
+  const DriftFit fit = fit_drift(frames, T, end_translation, end_rotation, prior);
+  if (fit.chi2 > chi_square_999(fit.dof)) return std::nullopt;
+  return fit.end_velocity;
 }
 
 std::vector<Eigen::Vector3d> volume_surface_points(const HostVolume& volume) {

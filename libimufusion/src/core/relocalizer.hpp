@@ -11,6 +11,7 @@
 // alignment that is reliable in all six directions. Pure C++, no GPU.
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -131,6 +132,16 @@ struct StretchCorrection {
 std::vector<StretchCorrection> drift_corrections(const std::vector<StretchFrame>& frames, double T,
                                                  const Eigen::Vector3d& end_translation,
                                                  const Eigen::Vector3d& end_rotation, const DriftPrior& prior);
+
+/// The velocity error (truth - estimate, world, m/s) dead reckoning carried to the stretch's end
+/// T, under the model and measurements of drift_corrections: the rate at which the corrections
+/// grow there. None when T is not positive, or when the end error (with the moves taken) is not
+/// what the prior lets dead reckoning drift: its chi-square above the 99.9th percentile for its
+/// degrees of freedom (a pose already off when the stretch began, as after a slide along a
+/// wall, not a drift whose rate the end could tell).
+std::optional<Eigen::Vector3d> drift_end_velocity(const std::vector<StretchFrame>& frames, double T,
+                                                  const Eigen::Vector3d& end_translation,
+                                                  const Eigen::Vector3d& end_rotation, const DriftPrior& prior);
 
 /// World points of the zero crossing of a TSDF snapshot: the voxels observed (weight > 0) with
 /// |tsdf| below half the truncation band, one point per voxel.

@@ -468,11 +468,39 @@ struct Reconstructor::Impl {
   void correct_lost_stretch(const PendingCorrection& c,
                             const std::vector<std::pair<std::size_t, Eigen::Isometry3d>>& placed) {
     const std::size_t first_placed = c.index - placed.size();
-    const double t0 = trajectory[c.anchor].timestamp;
-    const double span = trajectory[c.index].timestamp - t0;
+    const double span = trajectory[c.index].timestamp - trajectory[c.anchor].timestamp;
     if (!(span > 0)) return;
-    const Eigen::Vector3d rotation = inertial::log_so3(c.corrected.linear() * c.estimate.linear().transpose());
-    const Eigen::Vector3d translation = c.corrected.translation() - c.estimate.translation();
+    const StretchCorrection end = end_error(c);
+    const std::vector<StretchCorrection> corrections =
+        drift_corrections(stretch_frames(c, placed), span, end.translation, end.rotation, c.prior);
+    for (std::size_t i = c.anchor + 1; i < first_placed; ++i) {
+      const StretchCorrection& correction = corrections[i - c.anchor - 1];
+      Eigen::Isometry3d& T = trajectory[i].T_world_camera;
+      T.linear() = inertial::exp_so3(correction.rotation) * T.linear();
+      T.translation() += correction.translation;
+    }
+  }
+
+  // The velocity error (world) dead reckoning carried to the end of the stretch `c`, which ends
+  // at `end_time` (the current frame, not yet in the trajectory), under the drift model; none
+  // where the end error is not a drift the model explains (drift_end_velocity).
+  std::optional<Eigen::Vector3d> stretch_end_velocity_error(const PendingCorrection& c, double end_time) const {
+    const StretchCorrection end = end_error(c);
+    return drift_end_velocity(stretch_frames(c, {}), end_time - trajectory[c.anchor].timestamp, end.translation,
+                              end.rotation, c.prior);
+  }
+
+  // The error the stretch's end shows: truth (where ICP placed it) - estimate (dead reckoning).
+  static StretchCorrection end_error(const PendingCorrection& c) {
+    return {c.corrected.translation() - c.estimate.translation(),
+            inertial::log_so3(c.corrected.linear() * c.estimate.linear().transpose())};
+  }
+
+  // The frames strictly inside the stretch `c`, for drift_corrections (see correct_lost_stretch).
+  std::vector<StretchFrame> stretch_frames(const PendingCorrection& c,
+                                           const std::vector<std::pair<std::size_t, Eigen::Isometry3d>>& placed) const {
+    const std::size_t first_placed = c.index - placed.size();
+    const double t0 = trajectory[c.anchor].timestamp;
     std::vector<StretchFrame> frames;
     for (std::size_t i = c.anchor + 1; i < c.index; ++i) {
       StretchFrame f;
@@ -491,14 +519,7 @@ struct Reconstructor::Impl {
       }
       frames.push_back(f);
     }
-    const std::vector<StretchCorrection> corrections =
-        drift_corrections(frames, span, translation, rotation, c.prior);
-    for (std::size_t i = c.anchor + 1; i < first_placed; ++i) {
-      const StretchCorrection& correction = corrections[i - c.anchor - 1];
-      Eigen::Isometry3d& T = trajectory[i].T_world_camera;
-      T.linear() = inertial::exp_so3(correction.rotation) * T.linear();
-      T.translation() += correction.translation;
-    }
+    return frames;
   }
 
   InertialStatus inertial_status() const { return navigator ? navigator->status() : InertialStatus{}; }
@@ -645,6 +666,10 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
       T_world_dead.translation() = T_world_seed.translation();
       m.pending = Impl::PendingCorrection{m.last_constrained_index, r.index, T_world_dead, r.T_world_camera,
                                           m.constrained_prior, m.partial_fixed, std::move(m.lost_depth)};
+      // The velocity dead reckoning carried out of the loss, corrected by the drift it shows.
+      if (m.navigator && m.config.correct_velocity_after_loss) {
+        if (const auto dv = m.stretch_end_velocity_error(*m.pending, timestamp)) m.navigator->correct_velocity(*dv);
+      }
     }
     // A broken recovery: its frames keep the poses ICP placed them at, and the frames lost after
     // them are dead-reckoned from there, so the stretch before is re-estimated to meet them now.
