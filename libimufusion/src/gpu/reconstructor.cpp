@@ -607,7 +607,6 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
   IMUFUSION_RETURN_IF_ERROR(m.preprocess(depth, color, r.timings));
 
   TrackingDecision decision;
-  std::optional<Impl::PendingCorrection> broken;
   if (!m.machine.started() || !m.has_reference) {
     decision = m.machine.start();
     r.T_world_camera = m.config.initial_pose;
@@ -671,12 +670,6 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
         if (const auto dv = m.stretch_end_velocity_error(*m.pending, timestamp)) m.navigator->correct_velocity(*dv);
       }
     }
-    // A broken recovery: its frames keep the poses ICP placed them at, and the frames lost after
-    // them are dead-reckoned from there, so the stretch before is re-estimated to meet them now.
-    if (decision.status == TrackingStatus::kLost && m.pending) {
-      broken = std::move(m.pending);
-      m.pending.reset();
-    }
     // Taken as exact only while dead reckoning is still within ICP's reach: from a seed further
     // off, partial ICP may settle on the wrong stretch of the model in the directions it fixes
     // too, so there its move is a measurement to be checked (ReconstructorConfig::partial_move_sigma).
@@ -708,11 +701,12 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
   }
   IMUFUSION_RETURN_IF_ERROR(m.update_reference(r.T_world_camera, r.timings));
   m.trajectory.push_back({timestamp, r.T_world_camera});
-  if (decision.recovered && m.pending) {
+  // The stretch ends at a recovery, or at a broken one: its recovering frames keep the poses ICP
+  // placed them at, and the frames lost after them are dead-reckoned from there, so the stretch
+  // before is re-estimated to meet them now.
+  if ((decision.recovered || decision.status == TrackingStatus::kLost) && m.pending) {
     IMUFUSION_RETURN_IF_ERROR(m.settle_lost_stretch(*m.pending, r));
     m.pending.reset();
-  } else if (broken) {
-    IMUFUSION_RETURN_IF_ERROR(m.settle_lost_stretch(*broken, r));
   }
   r.inertial = m.inertial_status();
   r.timings.total_ms = ms_since(t0);
