@@ -226,6 +226,12 @@ void run_setting(const Loaded& seq, const Setting& setting, const Options& opt) 
     }
     results.push_back(std::move(*r));
   }
+  auto placed = rec->finish();
+  if (!placed) {
+    std::fprintf(stderr, "%s %s: %s\n", seq.label.c_str(), setting.name, placed.error().describe().c_str());
+    return;
+  }
+  if (!results.empty()) results.back().retracked += *placed;
   if (setting.imu) sigma_check.add(seq, results);
   const ScanStatistics s = summarize_scan(results);
   double ate_mm = -1;

@@ -464,6 +464,17 @@ int main(int argc, char** argv) {
     if (progress) show_progress(i + 1, total, run.frames.back(), 1000.0 * static_cast<double>(run.frames.size()) / elapsed_ms);
   }
   if (progress) std::fputc('\n', stderr);
+  // A scan that ends while recovering: its last lost stretch is settled before the trajectory is
+  // written (Reconstructor::finish).
+  if (!run.frames.empty()) {
+    auto placed = rec->finish();
+    if (placed) {
+      run.frames.back().retracked += *placed;
+    } else if (run.stopped.empty()) {
+      run.stopped = "ending the scan: " + placed.error().describe();
+      exit_code = 1;
+    }
+  }
   if (!run.stopped.empty()) std::cerr << (exit_code == 130 ? "stopped: " : "error: ") << run.stopped << "\n";
   nlohmann::json recording;
   if (recorder) {

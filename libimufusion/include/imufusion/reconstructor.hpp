@@ -184,7 +184,8 @@ struct FrameResult {
   bool fused = false;
   bool recovered = false;  // this frame ended a loss
   /// Frames of the loss this recovery (or this frame's break of one) placed by ICP backward
-  /// (their poses in trajectory()).
+  /// (their poses in trajectory()). For the last frame of a scan that ends while recovering, the
+  /// scanner adds those finish() placed.
   std::size_t retracked = 0;
   /// The frame's pose came from a relocalization search (ReconstructorConfig::relocalize_with_imu)
   /// rather than from ICP started at the dead-reckoned pose.
@@ -225,6 +226,14 @@ class Reconstructor {
                                      const Eigen::Isometry3d& T_world_camera,
                                      std::span<const ImuSample> imu = {});
 
+  /// Ends the scan after its last frame. A scan that ends while recovering holds a lost stretch
+  /// whose end ICP placed but the hysteresis has not confirmed yet: it is settled as a broken
+  /// recovery's is (see trajectory()), its kept frames placed backward from the recovering ones
+  /// and the rest re-estimated. Returns the frames so placed; 0 and no change when no recovery is
+  /// under way (a second call, a scan that ends tracking or lost). Frames may still follow: the
+  /// recovery goes on counting, its stretch already settled.
+  Result<std::size_t> finish();
+
   /// Marching cubes over the allocated blocks (welded vertices, normals, colours).
   Result<Mesh> extract_mesh(const MeshOptions& options = {}) const;
   /// The model seen from a pose (default: the depth camera's intrinsics and depth range).
@@ -254,7 +263,8 @@ class Reconstructor {
   /// Recovering frames that a later one disagreed with (FrameResult::recovery_restarted) belong
   /// to the stretch: they are re-estimated with it. A recovery that breaks (a recovering frame
   /// fails, the scan is lost again) ends the stretch before it the same way, at its recovering
-  /// frames: they keep their ICP poses, from which the next lost frames are dead-reckoned.
+  /// frames: they keep their ICP poses, from which the next lost frames are dead-reckoned. So
+  /// does a scan that ends while recovering, at finish().
   /// FrameResult keeps the pose each frame had when it was tracked.
   const Trajectory& trajectory() const;
   const ReconstructorConfig& config() const;

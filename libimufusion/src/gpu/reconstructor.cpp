@@ -753,6 +753,18 @@ Result<FrameResult> Reconstructor::fuse_with_pose(double timestamp, const DepthI
   return r;
 }
 
+Result<std::size_t> Reconstructor::finish() {
+  Impl& m = *impl_;
+  // A pending correction exists from a loss's first recovering frame until the recovery
+  // completes or breaks: here, the scan ends while recovering.
+  if (!m.pending || m.trajectory.empty()) return std::size_t{0};
+  FrameResult last;
+  last.T_world_camera = m.trajectory.back().T_world_camera;
+  IMUFUSION_RETURN_IF_ERROR(m.settle_lost_stretch(*m.pending, last));
+  m.pending.reset();
+  return last.retracked;
+}
+
 Result<Mesh> Reconstructor::extract_mesh(const MeshOptions& options) const {
   auto volume = snapshot();
   if (!volume) return volume.error();
