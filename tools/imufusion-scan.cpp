@@ -243,6 +243,7 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
   j["frames_to_recover"] = stats.recovery_frames;
   j["mean_icp_iterations"] = stats.mean_icp_iterations;
   j["median_icp_iterations"] = stats.median_icp_iterations;
+  j["median_icp_iterations_tracking"] = stats.median_icp_iterations_tracking;
   j["fps"] = stats.fps;
   j["median_frame_ms"] = stats.median_frame_ms;
   j["blocks_allocated"] = rec.allocated_blocks();

@@ -38,6 +38,7 @@ TEST(SummarizeScan, CountsARecoveryThatBrokeApartFromTheOneThatEndedTheLoss) {
   ASSERT_EQ(s.recovery_frames.size(), 1u);
   EXPECT_EQ(s.recovery_frames[0], 7u);  // from the first lost frame (2) to the one that tracked (9)
   EXPECT_DOUBLE_EQ(s.median_icp_iterations, 10);  // seven of the ten frames ICP ran on are not tracking
+  EXPECT_DOUBLE_EQ(s.median_icp_iterations_tracking, 2);  // frames 1, 9 and 10
   EXPECT_DOUBLE_EQ(s.mean_icp_iterations, (3 * 2 + 7 * 10) / 10.0);  // frame 0 ran no ICP
 }
 

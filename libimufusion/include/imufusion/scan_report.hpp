@@ -39,6 +39,10 @@ struct ScanStatistics {
   std::size_t retracked = 0;  // lost frames placed by ICP backward from their recovery
   double mean_icp_iterations = 0;    // over frames where ICP ran
   double median_icp_iterations = 0;  // over frames where ICP ran
+  /// Over tracking frames where ICP ran: the paper's per-frame figure. Lost and recovering
+  /// frames run the recovery's budget (TrackingConfig::recovery_icp_iterations) while they look
+  /// for the model, so a scan lost much of the time has a higher median over all frames.
+  double median_icp_iterations_tracking = 0;
   double mean_frame_ms = 0;
   double median_frame_ms = 0;
   double fps = 0;  // frames / total frame time

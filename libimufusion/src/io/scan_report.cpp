@@ -65,7 +65,7 @@ std::string frames_csv_row(const FrameResult& f, std::uint32_t allocated_blocks)
 ScanStatistics summarize_scan(const std::vector<FrameResult>& frames) {
   ScanStatistics s;
   s.frames = frames.size();
-  std::vector<double> iterations, ms;
+  std::vector<double> iterations, tracking_iterations, ms;
   double total_ms = 0;
   std::size_t loss_start = 0;
   bool in_loss = false;
@@ -82,6 +82,7 @@ ScanStatistics summarize_scan(const std::vector<FrameResult>& frames) {
       ++s.broken_recoveries;
     s.retracked += f.retracked;
     if (f.icp_ran) iterations.push_back(f.icp.quality.iterations);
+    if (f.icp_ran && f.status == TrackingStatus::kTracking) tracking_iterations.push_back(f.icp.quality.iterations);
     ms.push_back(f.timings.total_ms);
     total_ms += f.timings.total_ms;
     if (f.status != TrackingStatus::kTracking && !in_loss) {
@@ -99,6 +100,7 @@ ScanStatistics summarize_scan(const std::vector<FrameResult>& frames) {
     s.mean_icp_iterations /= static_cast<double>(iterations.size());
     s.median_icp_iterations = median_of(iterations);
   }
+  if (!tracking_iterations.empty()) s.median_icp_iterations_tracking = median_of(tracking_iterations);
   if (!ms.empty()) {
     s.mean_frame_ms = total_ms / static_cast<double>(ms.size());
     s.median_frame_ms = median_of(ms);
