@@ -94,9 +94,11 @@ class ReconstructorTest : public test::GpuTest {
     return ((T0.inverse() * truth->T_world_camera).translation() - pose.T_world_camera.translation()).norm();
   }
 
-  // Frames 0 to `last`, those `blank` names with no depth, the accelerometer jolted by 12 m/s^2
-  // along x over frame `jolt` (0.4 m/s). Stops at the first error.
-  std::vector<FrameResult> scan_jolted(Reconstructor& rec, std::size_t last, std::size_t jolt,
+  // Frames 0 to `last`, those `blank` names with no depth, the accelerometer reading
+  // `accel_error(i)` m/s^2 too much along x over frame i (at 30 fps, 12 m/s^2 over one frame is
+  // 0.4 m/s). Stops at the first error.
+  std::vector<FrameResult> scan_jolted(Reconstructor& rec, std::size_t last,
+                                       const std::function<double(std::size_t)>& accel_error,
                                        const std::function<bool(std::size_t)>& blank) const {
     std::vector<FrameResult> results;
     for (std::size_t i = 0; i <= last && i < frames_.size(); ++i) {
@@ -104,8 +106,7 @@ class ReconstructorTest : public test::GpuTest {
       DepthImage depth = f.depth;
       if (blank(i)) std::fill(depth.data.begin(), depth.data.end(), 0);
       std::vector<ImuSample> imu = f.imu;
-      if (i == jolt)
-        for (ImuSample& sample : imu) sample.accel.x() += 12;
+      for (ImuSample& sample : imu) sample.accel.x() += accel_error(i);
       auto r = rec.track_and_fuse(f.timestamp, depth, nullptr, imu);
       EXPECT_TRUE(r.ok()) << r.error().describe();
       if (!r.ok()) break;
@@ -282,18 +283,9 @@ TEST_F(ReconstructorTest, PlacesTheLostFramesBackwardFromTheRecovery) {
     c.relocalization_interval = 8;
     c.inertial.gravity_min_time = 0.3;  // the accelerometer in use (and jolted) within this short scan
     Reconstructor rec = make(c);
-    for (std::size_t i = 0; i < frames_.size(); ++i) {
-      const Frame& f = frames_[i];
-      DepthImage depth = f.depth;
-      if (i >= blank_begin && i < blank_end) std::fill(depth.data.begin(), depth.data.end(), 0);
-      std::vector<ImuSample> imu = f.imu;
-      if (i == blank_begin)
-        for (ImuSample& sample : imu) sample.accel.x() += 180;
-      auto r = rec.track_and_fuse(f.timestamp, depth, nullptr, imu);
-      EXPECT_TRUE(r.ok()) << r.error().describe();
-      if (!r.ok()) break;
-      results.push_back(*r);
-    }
+    results = scan_jolted(
+        rec, frames_.size() - 1, [&](std::size_t i) { return i == blank_begin ? 180.0 : 0.0; },
+        [&](std::size_t i) { return i >= blank_begin && i < blank_end; });
     return rec;
   };
 
@@ -404,7 +396,8 @@ TEST_F(ReconstructorTest, ABrokenRecoveryStillReEstimatesTheStretchBeforeIt) {
   c.inertial.gravity_min_time = 0.3;  // the accelerometer in use (and jolted) within this short scan
   Reconstructor rec = make(c);
   const std::vector<FrameResult> results = scan_jolted(
-      rec, frames_.size() - 1, blank_begin, [&](std::size_t i) { return (i >= blank_begin && i < placed) || i == broken; });
+      rec, frames_.size() - 1, [&](std::size_t i) { return i == blank_begin ? 12.0 : 0.0; },
+      [&](std::size_t i) { return (i >= blank_begin && i < placed) || i == broken; });
   ASSERT_EQ(results.size(), frames_.size());
   EXPECT_EQ(results[placed].status, TrackingStatus::kRecovering);
   EXPECT_LT(position_error({results[placed].timestamp, results[placed].T_world_camera}), 0.01);
@@ -434,7 +427,8 @@ TEST_F(ReconstructorTest, AScanThatEndsWhileRecoveringSettlesItsLastLoss) {
   Reconstructor rec = make(c);
   ASSERT_GT(c.tracking.recovery_frames, static_cast<int>(last - placed + 1));
   const std::vector<FrameResult> results =
-      scan_jolted(rec, last, blank_begin, [&](std::size_t i) { return i >= blank_begin && i < placed; });
+      scan_jolted(rec, last, [&](std::size_t i) { return i == blank_begin ? 12.0 : 0.0; },
+                  [&](std::size_t i) { return i >= blank_begin && i < placed; });
   ASSERT_EQ(results.size(), last + 1);
   ASSERT_EQ(results[placed].status, TrackingStatus::kRecovering);
   ASSERT_EQ(results[last].status, TrackingStatus::kRecovering);
@@ -468,19 +462,10 @@ TEST_F(ReconstructorTest, TheFirstFramePlacedAfterALossCorrectsTheVelocity) {
     c.correct_velocity_after_loss = correct;
     c.drift_gravity_sigma_scale = gravity_sigma_scale;
     Reconstructor rec = make(c);
-    std::vector<FrameResult> results;
-    for (std::size_t i = 0; i <= placed + 1; ++i) {
-      const Frame& f = frames_[i];
-      DepthImage depth = f.depth;
-      std::vector<ImuSample> imu = f.imu;
-      if (i >= blank_begin && i < placed) std::fill(depth.data.begin(), depth.data.end(), 0);
-      if (i >= blank_begin && i <= placed)
-        for (ImuSample& sample : imu) sample.accel.x() += 6;
-      auto r = rec.track_and_fuse(f.timestamp, depth, nullptr, imu);
-      EXPECT_TRUE(r.ok()) << r.error().describe();
-      if (!r.ok()) return std::numeric_limits<double>::infinity();
-      results.push_back(*r);
-    }
+    const std::vector<FrameResult> results = scan_jolted(
+        rec, placed + 1, [&](std::size_t i) { return i >= blank_begin && i <= placed ? 6.0 : 0.0; },
+        [&](std::size_t i) { return i >= blank_begin && i < placed; });
+    if (results.size() != placed + 2) return std::numeric_limits<double>::infinity();
     EXPECT_EQ(results[placed - 1].status, TrackingStatus::kLost);
     EXPECT_EQ(results[placed].status, TrackingStatus::kRecovering);
     const FrameResult& next = results[placed + 1];
