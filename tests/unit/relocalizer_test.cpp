@@ -4,11 +4,13 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <numbers>
 #include <random>
 #include <vector>
 
 #include <Eigen/Geometry>
+
 #include <gtest/gtest.h>
 
 #include "core/relocalizer.hpp"
@@ -239,6 +241,30 @@ TEST(DriftCorrections, FollowEachErrorSource) {
   const auto none = drift_corrections(frames, T, translation, delta_T, DriftPrior{});
   EXPECT_LT((none[59].translation - translation * frames[59].s / T).norm(), 1e-9);
   EXPECT_LT((none[59].rotation - delta_T * frames[59].s / T).norm(), 1e-9);
+}
+
+// A stretch that begins at the scan's first frame: no velocity measured yet (its sigma is
+// infinite), and an unknown gyro bias. The corrections stay finite and spread as a free velocity
+// and a free bias spread them: linearly.
+TEST(DriftCorrections, UnmeasuredErrorsAreFreeNotNaN) {
+  const double T = 0.5;
+  const std::vector<StretchFrame> frames = stretch_frames(T, 1.0 / 30.0);
+  const Eigen::Vector3d rotation(0.01, -0.02, 0.005), translation(-0.08, 0.02, -0.01);
+  DriftPrior unmeasured;
+  unmeasured.velocity_sigma = std::numeric_limits<double>::infinity();
+  unmeasured.gyro_bias_sigma = std::numeric_limits<double>::infinity();
+  unmeasured.gyro_noise_density = 0.003;
+  const auto c = drift_corrections(frames, T, translation, rotation, unmeasured);
+  ASSERT_EQ(c.size(), frames.size());
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    ASSERT_TRUE(c[k].translation.allFinite() && c[k].rotation.allFinite()) << k;
+    const double u = frames[k].s / T;
+    EXPECT_LT((c[k].translation - u * translation).norm(), 1e-4) << k;
+    EXPECT_LT((c[k].rotation - u * rotation).norm(), 1e-4) << k;
+  }
+  const auto v = drift_end_velocity(frames, T, translation, rotation, unmeasured);
+  ASSERT_TRUE(v.has_value());
+  EXPECT_LT((*v - translation / T).norm(), 1e-3);
 }
 
 // The gyro's noise makes the rotation error a random walk: its end value alone says it grew

@@ -209,10 +209,15 @@ DriftFit fit_drift(const std::vector<StretchFrame>& frames, double T, const Eige
     if (frames.empty()) return Eigen::Matrix3d::Identity();
     return frames[std::min(k, frames.size() - 1)].R_world_camera;
   };
-  double gyro_bias2 = prior.gyro_bias_sigma * prior.gyro_bias_sigma;
+  // A sigma that is not finite (nothing measured yet: the velocity before the scan's second
+  // tracked frame) leaves that error free. Its variance is taken as 1 ((rad/s)^2, (m/s)^2), far
+  // above any estimate's, where the conditional mean is that of a free error: an infinite one
+  // would turn Sigma H^T into inf * 0.
+  const auto free_if_unknown = [](double sigma) { return std::isfinite(sigma) ? sigma * sigma : 1.0; };
+  double gyro_bias2 = free_if_unknown(prior.gyro_bias_sigma);
   const double noise2 = prior.gyro_noise_density * prior.gyro_noise_density;
   if (!(gyro_bias2 + noise2 > 0)) gyro_bias2 = 1;  // linear
-  double velocity2 = prior.velocity_sigma * prior.velocity_sigma;
+  double velocity2 = free_if_unknown(prior.velocity_sigma);
   const bool accelerometer = prior.gravity_bias_covariance.allFinite() && prior.gravity_bias_covariance.trace() > 0;
   if (!(velocity2 > 0) && !accelerometer) velocity2 = 1;  // linear
   Eigen::VectorXd variance = Eigen::VectorXd::Zero(n);  // Sigma's diagonal, the block apart

@@ -67,12 +67,12 @@ std::vector<TranslationCandidate> merge_candidates(const std::vector<Translation
 /// axis). Zero sigmas are sources left out.
 struct DriftPrior {
   Eigen::Vector3d gravity_world = Eigen::Vector3d::Zero();  // m/s^2; zero: no tilt term
-  double velocity_sigma = 0;      // m/s: the velocity at the start
+  double velocity_sigma = 0;      // m/s: the velocity at the start; infinite: not yet measured
   // The joint covariance of the gravity estimate (world) and the accelerometer bias (camera
   // frame), m^2/s^4. Estimated together, their sum is known far better than either while the
   // camera turned little; a turn during the stretch shows their difference.
   Eigen::Matrix<double, 6, 6> gravity_bias_covariance = Eigen::Matrix<double, 6, 6>::Zero();
-  double gyro_bias_sigma = 0;     // rad/s: the gyro bias estimate (camera frame)
+  double gyro_bias_sigma = 0;     // rad/s: the gyro bias estimate (camera frame); infinite: unknown
   double gyro_noise_density = 0;  // rad/s/sqrt(Hz): the gyro's white noise (angle random walk)
 };
 
