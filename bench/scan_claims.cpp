@@ -25,6 +25,10 @@
 // the first loss, the gyro bias, gravity, accelerometer bias and velocity estimates against the
 // truth, per axis in units of the sigma reported with them, each scan once (with its first IMU
 // setting). Printed after the table: the RMS of those ratios (1 for honest sigmas).
+//
+// Also printed after the table, for each pair of settings run: over the scans with both, on how
+// many the first's ATE is no worse than the second's, the mean difference with its 95 % interval,
+// and the first's largest excess.
 
 #include <algorithm>
 #include <cmath>
@@ -32,6 +36,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <limits>
+#include <map>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -195,6 +201,53 @@ Result<Loaded> load(const fs::path& dir, std::string label, long max_frames) {
   return l;
 }
 
+// The ATE (mm) of every scan and setting run, for the paired comparison printed at the end.
+struct PairedAte {
+  std::map<std::string, std::map<std::string, double>> ate;  // scan label -> setting -> mm
+
+  // For each pair of settings run (a listed before b in kSettings), over the scans with both:
+  // on how many a is no worse than b, the mean of a - b with its 95 % interval (normal
+  // approximation), and a's largest excess over b.
+  void print(const Options& opt) const {
+    bool header = false;
+    for (std::size_t i = 0; i < std::size(kSettings); ++i) {
+      for (std::size_t j = i + 1; j < std::size(kSettings); ++j) {
+        const std::string a = kSettings[i].name, b = kSettings[j].name;
+        if (!wanted(opt, kSettings[i]) || !wanted(opt, kSettings[j])) continue;
+        std::vector<double> d;
+        std::string worst_scan = "-";
+        double worst = -std::numeric_limits<double>::infinity(), worst_rel = 0;
+        for (const auto& [label, by] : ate) {
+          const auto ia = by.find(a), ib = by.find(b);
+          if (ia == by.end() || ib == by.end()) continue;
+          d.push_back(ia->second - ib->second);
+          if (d.back() > worst) {
+            worst = d.back();
+            worst_rel = ib->second > 0 ? 100 * d.back() / ib->second : 0;
+            worst_scan = label;
+          }
+        }
+        if (d.empty()) continue;
+        if (!header) {
+          std::printf("\n| setting | against | scans | no worse | mean difference mm (95 %% interval) | largest excess mm |\n");
+          std::printf("| --- | --- | --- | --- | --- | --- |\n");
+          header = true;
+        }
+        double mean = 0;
+        for (double x : d) mean += x;
+        mean /= double(d.size());
+        double var = 0;
+        for (double x : d) var += (x - mean) * (x - mean);
+        const double half = d.size() > 1 ? 1.96 * std::sqrt(var / double(d.size() - 1) / double(d.size())) : 0;
+        const auto no_worse = std::count_if(d.begin(), d.end(), [](double x) { return x <= 0; });
+        std::printf("| %s | %s | %zu | %td | %+.3f (%+.3f to %+.3f) | %+.3f (%+.1f %%, %s) |\n", a.c_str(), b.c_str(),
+                    d.size(), no_worse, mean, mean - half, mean + half, worst, worst_rel, worst_scan.c_str());
+      }
+    }
+  }
+};
+PairedAte paired;
+
 void run_setting(const Loaded& seq, const Setting& setting, const Options& opt) {
   ReconstructorConfig c;
   c.retrack_lost_frames = opt.retrack_lost_frames;
@@ -238,7 +291,10 @@ void run_setting(const Loaded& seq, const Setting& setting, const Options& opt) 
   const ScanStatistics s = summarize_scan(results);
   double ate_mm = -1;
   if (seq.reader->has_ground_truth()) {
-    if (auto ate = evaluate_ate(seq.reader->ground_truth(), rec->trajectory()); ate) ate_mm = 1000 * ate->stats.rmse;
+    if (auto ate = evaluate_ate(seq.reader->ground_truth(), rec->trajectory()); ate) {
+      ate_mm = 1000 * ate->stats.rmse;
+      paired.ate[seq.label][setting.name] = ate_mm;
+    }
   }
   std::string after = "-";
   if (seq.hard_end) {
@@ -249,7 +305,7 @@ void run_setting(const Loaded& seq, const Setting& setting, const Options& opt) 
   }
   std::string recover;
   for (std::size_t k : s.recovery_frames) recover += (recover.empty() ? "" : "/") + std::to_string(k);
-  std::printf("| %s | %s | %.1f | %zu | %zu | %zu | %zu | %s | %zu | %zu | %.1f | %.1f | %.2f | %s | %.1f |\n",
+  std::printf("| %s | %s | %.3f | %zu | %zu | %zu | %zu | %s | %zu | %zu | %.1f | %.1f | %.2f | %s | %.1f |\n",
               seq.label.c_str(), setting.name, ate_mm, s.lost, s.recovering, s.recoveries, s.broken_recoveries,
               recover.empty() ? "-" : recover.c_str(), s.retracked, s.recovery_restarts, s.median_icp_iterations, s.median_icp_iterations_tracking, s.mean_icp_iterations, after.c_str(), s.fps);
   std::fflush(stdout);
@@ -313,6 +369,7 @@ int main(int argc, char** argv) {
     for (const Setting& setting : kSettings)
       if (wanted(opt, setting)) run_setting(*seq, setting, opt);
   }
+  paired.print(opt);
   sigma_check.print();
   return 0;
 }
