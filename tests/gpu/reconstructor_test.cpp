@@ -447,6 +447,33 @@ TEST_F(ReconstructorTest, AScanThatEndsWhileRecoveringSettlesItsLastLoss) {
     EXPECT_TRUE(rec.trajectory()[i].T_world_camera.isApprox(settled[i].T_world_camera)) << "frame " << i;
 }
 
+// A sensor's first frames are often empty: the scan starts at the first frame with depth, which
+// defines the world. Before, the empty first frame did and every later frame was lost against an
+// empty model.
+TEST_F(ReconstructorTest, TheScanStartsAtItsFirstFrameWithDepth) {
+  const std::size_t start = 3;
+  Reconstructor rec = make(config(true, 2));
+  const std::vector<FrameResult> results =
+      scan_jolted(rec, frames_.size() - 1, [](std::size_t) { return 0.0; }, [&](std::size_t i) { return i < start; });
+  ASSERT_EQ(results.size(), frames_.size());
+  for (std::size_t i = 0; i < start; ++i) {
+    EXPECT_EQ(results[i].status, TrackingStatus::kLost) << "frame " << i;
+    EXPECT_EQ(results[i].source, PoseSource::kInitial) << "frame " << i;
+    EXPECT_FALSE(results[i].fused) << "frame " << i;
+  }
+  EXPECT_EQ(results[start].source, PoseSource::kInitial);
+  EXPECT_TRUE(results[start].fused);
+  const StampedPose* truth_start = find_pose(reader_->ground_truth(), results[start].timestamp);
+  ASSERT_NE(truth_start, nullptr);
+  for (std::size_t i = start; i < results.size(); ++i) {
+    EXPECT_EQ(results[i].status, TrackingStatus::kTracking) << "frame " << i;
+    const StampedPose* truth = find_pose(reader_->ground_truth(), results[i].timestamp);
+    ASSERT_NE(truth, nullptr);
+    const Eigen::Vector3d expected = (truth_start->T_world_camera.inverse() * truth->T_world_camera).translation();
+    EXPECT_LT((rec.trajectory()[i].T_world_camera.translation() - expected).norm(), 0.01) << "frame " << i;
+  }
+}
+
 // The scan is lost straight after its first frame (frames 1-3 blank), before any velocity was
 // measured: the stretch's re-estimation takes that velocity as free, not as an infinite sigma
 // that turned every lost pose into NaN. The lost frames meet the frames on either side.

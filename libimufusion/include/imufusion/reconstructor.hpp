@@ -13,7 +13,11 @@
 //   4. the state machine takes the ICP pose if ICP is reliable, else the dead-reckoned seed,
 //      and decides whether the frame is fused;
 //   5. fusion (GPU) when decided, then the raycast from the frame's pose (GPU) for frame t+1.
-// The first frame defines the world (config.initial_pose) and is fused. While lost nothing is
+// The first frame with depth defines the world (config.initial_pose) and is fused: frames
+// before it (a sensor's first frames are often empty) have fewer valid depth pixels than ICP's
+// reliability test needs inliers (icp.reliability.min_inliers), so nothing could ever be
+// tracked against them; they report status lost at the initial pose, fuse nothing, and the scan
+// starts at the next frame that has them. While lost nothing is
 // fused, and ICP keeps trying against the model raycast from the dead-reckoned pose: recovery
 // is ICP converging reliably onto the already scanned model.
 

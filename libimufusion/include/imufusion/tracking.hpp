@@ -28,7 +28,8 @@
 // but it never counts towards recovery, which must be confirmed in all six directions.
 //
 // The first frame of a scan (or after reset) defines the world: status tracking, pose source
-// `initial`, fused. Dead reckoning means M_{t-1} * dIMU: the previous pose moved by the IMU's
+// `initial`, fused. (The Reconstructor starts the machine at the first frame with depth enough to
+// track against; the empty frames before it are lost at the initial pose.) Dead reckoning means M_{t-1} * dIMU: the previous pose moved by the IMU's
 // estimate of the motion (identity rotation when there is no IMU data).
 
 #include <optional>

@@ -200,13 +200,24 @@ struct Reconstructor::Impl {
   }
 
   // Mean sigma(z)^2 over the frame's valid depths (m^2).
+  // Whether a raw depth measurement is kept by preprocessing: measured and within its range.
+  bool valid_depth(std::uint16_t raw, double z) const {
+    return raw != 0 && z >= config.preprocess.min_depth && z <= config.preprocess.max_depth;
+  }
+
+  std::size_t valid_depth_pixels(const DepthImage& depth) const {
+    const double scale = 1.0 / depth.depth_scale;
+    return static_cast<std::size_t>(std::count_if(depth.data.begin(), depth.data.end(),
+                                                  [&](std::uint16_t raw) { return valid_depth(raw, raw * scale); }));
+  }
+
   double mean_noise_variance(const DepthImage& depth) const {
     double sum = 0;
     std::size_t n = 0;
     const double scale = 1.0 / depth.depth_scale;
     for (std::uint16_t raw : depth.data) {
       const double z = raw * scale;
-      if (raw == 0 || z < config.preprocess.min_depth || z > config.preprocess.max_depth) continue;
+      if (!valid_depth(raw, z)) continue;
       const double sigma = config.icp.depth_noise.sigma(z);
       sum += sigma * sigma;
       ++n;
@@ -608,7 +619,12 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
 
   TrackingDecision decision;
   if (!m.machine.started() || !m.has_reference) {
-    decision = m.machine.start();
+    // The scan starts at its first frame with depth enough to track against; before it, the
+    // frame waits at the initial pose, lost, and the machine stays unstarted.
+    if (m.valid_depth_pixels(depth) >= m.config.icp.reliability.min_inliers)
+      decision = m.machine.start();
+    else
+      decision = {TrackingStatus::kLost, PoseSource::kInitial, false, 0, false};
     r.T_world_camera = m.config.initial_pose;
   } else {
     const StampedPose& previous = m.trajectory.back();
