@@ -199,7 +199,6 @@ struct Reconstructor::Impl {
     return {};
   }
 
-  // Mean sigma(z)^2 over the frame's valid depths (m^2).
   // Whether a raw depth measurement is kept by preprocessing: measured and within its range.
   bool valid_depth(std::uint16_t raw, double z) const {
     return raw != 0 && z >= config.preprocess.min_depth && z <= config.preprocess.max_depth;
@@ -211,6 +210,7 @@ struct Reconstructor::Impl {
                                                   [&](std::uint16_t raw) { return valid_depth(raw, raw * scale); }));
   }
 
+  // Mean sigma(z)^2 over the frame's valid depths (m^2).
   double mean_noise_variance(const DepthImage& depth) const {
     double sum = 0;
     std::size_t n = 0;
