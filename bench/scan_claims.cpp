@@ -233,15 +233,13 @@ struct PairedAte {
           std::printf("| --- | --- | --- | --- | --- | --- |\n");
           header = true;
         }
-        double mean = 0;
-        for (double x : d) mean += x;
-        mean /= double(d.size());
-        double var = 0;
-        for (double x : d) var += (x - mean) * (x - mean);
-        const double half = d.size() > 1 ? 1.96 * std::sqrt(var / double(d.size() - 1) / double(d.size())) : 0;
+        // The sample standard deviation of the mean: population std / sqrt(n - 1).
+        const ErrorStats stats = compute_error_stats(d);
+        const double half = d.size() > 1 ? 1.96 * stats.std / std::sqrt(double(d.size() - 1)) : 0;
         const auto no_worse = std::count_if(d.begin(), d.end(), [](double x) { return x <= 0; });
         std::printf("| %s | %s | %zu | %td | %+.3f (%+.3f to %+.3f) | %+.3f (%+.1f %%, %s) |\n", a.c_str(), b.c_str(),
-                    d.size(), no_worse, mean, mean - half, mean + half, worst, worst_rel, worst_scan.c_str());
+                    d.size(), no_worse, stats.mean, stats.mean - half, stats.mean + half, worst, worst_rel,
+                    worst_scan.c_str());
       }
     }
   }
