@@ -29,8 +29,9 @@
 //
 // The first frame of a scan (or after reset) defines the world: status tracking, pose source
 // `initial`, fused. (The Reconstructor starts the machine at the first frame with depth enough to
-// track against; the empty frames before it are lost at the initial pose.) Dead reckoning means M_{t-1} * dIMU: the previous pose moved by the IMU's
-// estimate of the motion (identity rotation when there is no IMU data).
+// track against; the empty frames before it are lost at the initial pose.) Dead reckoning means
+// M_{t-1} * dIMU: the previous pose moved by the IMU's estimate of the motion (identity rotation
+// when there is no IMU data).
 
 #include <optional>
 #include <string_view>
