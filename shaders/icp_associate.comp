@@ -50,7 +50,10 @@ void main() {
   }
   float dist = distance(pt, q.xyz);
   float cosine = dot(m, g.xyz);
-  if (dist > p.max_distance || cosine < p.min_normal_cos) {
+  float sigma = p.noise_a + p.noise_b * (v.z - p.noise_z0) * (v.z - p.noise_z0);
+  float tan_noise = p.noise_k * sigma * p.fx / v.z;
+  float min_cos = min(p.min_normal_cos, max(inversesqrt(1.0 + tan_noise * tan_noise), p.max_noise_cos));
+  if (dist > p.max_distance || cosine < min_cos) {
     reject(i, -1.0);
     return;
   }

@@ -60,7 +60,8 @@ struct NormalMapParams {
 // Each current-frame pixel with a vertex v and normal n is moved by the estimate T_ref_cur
 // (p = R v + t, m = R n), projected into the reference maps and paired with the reference vertex
 // q and normal g there. The pair is rejected when either is invalid, the projection falls outside
-// the reference image, |p - q| > max_distance, or m . g < min_normal_cos. Otherwise it writes the
+// the reference image, |p - q| > max_distance, or m . g is below the pixel's normal cosine
+// (min_normal_cos, lowered where the depth noise makes normals scatter). Otherwise it writes the
 // linearized point-to-plane row (Low 2004, small-angle rotation x = (alpha, beta, gamma, tx, ty,
 // tz)): a = (p x g, g), b = g . (q - p), and the weight
 //     w = (m . g) * (1 - |p - q| / max_distance)
@@ -79,6 +80,14 @@ struct IcpAssociateParams {
   float r20, r21, r22, tz;
   float max_distance;    // metres
   float min_normal_cos;  // cosine of the largest normal angle
+  // The normal test widened to the depth noise (imufusion::NormalGate): a pixel at depth z
+  // (current frame) passes down to min(min_normal_cos, cos atan(noise_k sigma(z) fx / z)), never
+  // below max_noise_cos; sigma(z) = noise_a + noise_b (z - noise_z0)^2.
+  float noise_a;  // metres
+  float noise_b;  // 1 / metre
+  float noise_z0; // metres
+  float noise_k;
+  float max_noise_cos;
 };
 
 // icp_reduce: the first stage of a deterministic two-stage reduction over the association rows.

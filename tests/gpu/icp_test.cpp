@@ -74,7 +74,8 @@ TEST_F(GpuTest, AssociationAndReductionMatchTheReference) {
   ASSERT_TRUE(ref_maps.ok() && cur_maps.ok());
 
   const DepthNoiseModel noise;
-  auto kernels = gpu::IcpKernels::create(context_, 97 * 61, 16, 16, noise);
+  const NormalGate gate;  // the default widens the normal test on the far pixels
+  auto kernels = gpu::IcpKernels::create(context_, 97 * 61, 16, 16, noise, gate);
   ASSERT_TRUE(kernels.ok()) << kernels.error().describe();
   auto icp_seq = gpu::CommandSequence::create(context_, gpu::IcpKernels::kDispatches);
   ASSERT_TRUE(icp_seq.ok());
@@ -96,7 +97,7 @@ TEST_F(GpuTest, AssociationAndReductionMatchTheReference) {
 
     const auto expected = reference::icp_associate(cur_maps->vertices[l], cur_maps->normals[l],
                                                    ref_maps->vertices[l], ref_maps->normals[l], kl,
-                                                   T, max_distance, min_cos);
+                                                   T, max_distance, min_cos, noise, gate);
     std::vector<reference::IcpRow> gpu_rows(expected.size());
     int accept_mismatch = 0, value_mismatch = 0, accepted = 0;
     for (std::size_t i = 0; i < expected.size(); ++i) {

@@ -34,6 +34,16 @@ struct DepthNoiseModel {
   }
 };
 
+/// The normal-angle test of a pair follows the current pixel's depth noise: at depth z a pair is
+/// kept up to max(the level's max_normal_angle_deg, atan(noise_k sigma(z) f / z)) (f: focal
+/// length in pixels at the level), never beyond max_angle_deg. noise_k: the normals' angular
+/// noise in units of sigma(z) over one pixel's footprint (bench/normal_noise; default 0.5);
+/// 0: the level's angle alone.
+struct NormalGate {
+  double noise_k = 0.5;
+  double max_angle_deg = 60;
+};
+
 /// The weighted normal equations of one association pass (sums over accepted pairs):
 /// AtA = sum w a a^T, Atb = sum w a b, btb = sum w b^2 (m^2), inliers = number of pairs,
 /// weight_sum = sum w. valid_pixels counts the current pixels with a vertex and a normal;
@@ -78,6 +88,7 @@ struct IcpConfig {
   /// Correspondence rejection per level: point distance (m) and normal angle (deg).
   std::vector<float> max_distance = {0.10f, 0.15f, 0.20f};
   std::vector<float> max_normal_angle_deg = {20.f, 25.f, 30.f};
+  NormalGate normal_gate;  // widens max_normal_angle_deg where the depth is noisy
   /// Convergence: stop a level when the update is below both (rad, m).
   double converged_rotation = 1e-5;
   double converged_translation = 1e-5;

@@ -33,6 +33,7 @@
 // M_{t-1} * dIMU: the previous pose moved by the IMU's estimate of the motion (identity rotation
 // when there is no IMU data).
 
+#include <deque>
 #include <optional>
 #include <string_view>
 
@@ -54,6 +55,32 @@ struct TrackingConfig {
   /// Cap on Gauss-Newton steps for a frame while lost or recovering (the seed is then a
   /// dead-reckoned pose, further off than after a tracked frame).
   int recovery_icp_iterations = 10;
+  /// The pairing test follows what aligned frames of this scan pair: a frame must pair at least
+  /// `pairing_ratio` of the median over the last `pairing_window` frames ICP tracked in all six
+  /// directions, where that is below IcpReliabilityThresholds' min_inlier_fraction /
+  /// min_pixel_fraction, and never less than `pairing_floor` (bench/README.md, "Pairing").
+  int pairing_window = 15;
+  double pairing_ratio = 0.7;
+  double pairing_floor = 0.15;
+};
+
+/// What aligned frames of this scan pair against the model (the medians of IcpQuality's
+/// inlier_fraction and pixel_fraction over the last TrackingConfig::pairing_window reliable
+/// frames): the depth's noise and the model's coverage set it, not the alignment.
+class PairingReference {
+ public:
+  explicit PairingReference(const TrackingConfig& config = {}) : config_(config) {}
+  /// A frame ICP tracked in all six directions paired these fractions.
+  void add(double inlier_fraction, double pixel_fraction);
+  /// The thresholds `base` lowered to what this scan's aligned frames pair (see TrackingConfig);
+  /// `base` itself before any frame was added.
+  void apply(double& min_inlier_fraction, double& min_pixel_fraction) const;
+  void reset();
+  std::size_t size() const { return inlier_.size(); }
+
+ private:
+  TrackingConfig config_;
+  std::deque<double> inlier_, pixel_;
 };
 
 struct TrackingDecision {

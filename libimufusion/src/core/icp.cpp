@@ -121,6 +121,10 @@ Status IcpConfig::validate(int levels) const {
                                      {"min_pixel_fraction", reliability.min_pixel_fraction}}) {
     if (!(value >= 0 && value <= 1)) return bad(std::string(name) + " must be in [0, 1], got " + format(value));
   }
+  if (!(normal_gate.noise_k >= 0 && std::isfinite(normal_gate.noise_k)))
+    return bad("normal_gate.noise_k must be finite and non-negative, got " + format(normal_gate.noise_k));
+  if (!(normal_gate.max_angle_deg > 0 && normal_gate.max_angle_deg < 90))
+    return bad("normal_gate.max_angle_deg must be in (0, 90), got " + format(normal_gate.max_angle_deg));
   if (min_constrained_directions < 1 || min_constrained_directions > 6)
     return bad("min_constrained_directions must be 1..6, got " + std::to_string(min_constrained_directions));
   if (!(seed_sigma_rotation >= 0 && std::isfinite(seed_sigma_rotation) && seed_sigma_translation >= 0 &&

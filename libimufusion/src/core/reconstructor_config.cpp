@@ -19,6 +19,12 @@ Status ReconstructorConfig::validate() const {
   IMUFUSION_RETURN_IF_ERROR(icp.validate(preprocess.levels));
   if (tracking.recovery_frames < 1)
     return bad("tracking.recovery_frames must be at least 1, got " + std::to_string(tracking.recovery_frames));
+  if (tracking.pairing_window < 0)
+    return bad("tracking.pairing_window must be non-negative, got " + std::to_string(tracking.pairing_window));
+  if (!(tracking.pairing_ratio >= 0 && tracking.pairing_ratio <= 1))
+    return bad("tracking.pairing_ratio must be in [0, 1], got " + std::to_string(tracking.pairing_ratio));
+  if (!(tracking.pairing_floor >= 0 && tracking.pairing_floor <= 1))
+    return bad("tracking.pairing_floor must be in [0, 1], got " + std::to_string(tracking.pairing_floor));
   if (tracking.recovery_icp_iterations < 1 || tracking.recovery_icp_iterations > 100)
     return bad("tracking.recovery_icp_iterations must be 1..100, got " +
                std::to_string(tracking.recovery_icp_iterations));

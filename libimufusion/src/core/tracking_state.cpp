@@ -25,6 +25,41 @@ const char* to_string(PoseSource source) {
   return "unknown";
 }
 
+namespace {
+
+double median(std::deque<double> values) {
+  const auto mid = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), mid, values.end());
+  return *mid;
+}
+
+}  // namespace
+
+void PairingReference::add(double inlier_fraction, double pixel_fraction) {
+  if (config_.pairing_window <= 0) return;
+  inlier_.push_back(inlier_fraction);
+  pixel_.push_back(pixel_fraction);
+  while (inlier_.size() > static_cast<std::size_t>(config_.pairing_window)) {
+    inlier_.pop_front();
+    pixel_.pop_front();
+  }
+}
+
+void PairingReference::apply(double& min_inlier_fraction, double& min_pixel_fraction) const {
+  const double floor = config_.pairing_floor;
+  const auto lowered = [&](double base, const std::deque<double>& seen) {
+    if (seen.empty()) return base;
+    return std::min(base, std::max(floor, config_.pairing_ratio * median(seen)));
+  };
+  min_inlier_fraction = lowered(min_inlier_fraction, inlier_);
+  min_pixel_fraction = lowered(min_pixel_fraction, pixel_);
+}
+
+void PairingReference::reset() {
+  inlier_.clear();
+  pixel_.clear();
+}
+
 std::optional<TrackingStatus> parse_tracking_status(std::string_view name) {
   for (auto s : {TrackingStatus::kTracking, TrackingStatus::kLost, TrackingStatus::kRecovering})
     if (name == to_string(s)) return s;

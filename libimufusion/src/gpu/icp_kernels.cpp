@@ -1,5 +1,6 @@
 #include "gpu/icp_kernels.hpp"
 
+#include <cmath>
 #include <string>
 #include <utility>
 
@@ -15,9 +16,10 @@ constexpr std::uint32_t kRowsPerGroup = 2048;
 
 Result<IcpKernels> IcpKernels::create(std::shared_ptr<Context> context, std::size_t max_pixels,
                                       int workgroup_x, int workgroup_y,
-                                      const DepthNoiseModel& noise) {
+                                      const DepthNoiseModel& noise, const NormalGate& gate) {
   IcpKernels k;
   k.noise_ = noise;
+  k.gate_ = gate;
   auto associate = ComputePipeline::create(
       context, {"icp_associate", 5, sizeof(layout::IcpAssociateParams),
                 static_cast<std::uint32_t>(workgroup_x), static_cast<std::uint32_t>(workgroup_y)});
@@ -50,7 +52,9 @@ void IcpKernels::record(CommandSequence& seq, const IcpMaps& current, const IcpM
       R(0, 0), R(0, 1), R(0, 2), t.x(),
       R(1, 0), R(1, 1), R(1, 2), t.y(),
       R(2, 0), R(2, 1), R(2, 2), t.z(),
-      max_distance, min_normal_cos};
+      max_distance, min_normal_cos,
+      static_cast<float>(noise_.a), static_cast<float>(noise_.b), static_cast<float>(noise_.z0),
+      static_cast<float>(gate_.noise_k), static_cast<float>(std::cos(gate_.max_angle_deg * M_PI / 180.0))};
   const std::string suffix = "[" + std::to_string(level) + "]";
   seq.dispatch(associate_,
                {current.vertices, current.normals, reference.vertices, reference.normals, &rows_},

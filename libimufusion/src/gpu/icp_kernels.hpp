@@ -24,9 +24,11 @@ struct IcpMaps {
 class IcpKernels {
  public:
   /// Buffers sized for current frames of up to `max_pixels` pixels; `noise` weighs the pixels
-  /// in the inlier fraction (NormalEquations::valid_information).
+  /// in the inlier fraction (NormalEquations::valid_information) and, with `gate`, widens the
+  /// normal test where the depth is noisy.
   static Result<IcpKernels> create(std::shared_ptr<Context> context, std::size_t max_pixels,
-                                   int workgroup_x, int workgroup_y, const DepthNoiseModel& noise);
+                                   int workgroup_x, int workgroup_y, const DepthNoiseModel& noise,
+                                   const NormalGate& gate = {});
 
   /// Records association of `current` against `reference` (seen through `ref_intrinsics`) at
   /// the pose T_ref_cur, then the partial reduction.
@@ -46,6 +48,7 @@ class IcpKernels {
   Buffer rows_, partials_;
   std::uint32_t groups_ = 0;  // partial sums written by the last run
   DepthNoiseModel noise_;
+  NormalGate gate_;
 };
 
 /// Runs one association + reduction per evaluate() on the device: the bridge between the

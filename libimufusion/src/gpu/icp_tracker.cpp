@@ -56,7 +56,7 @@ Result<IcpTracker> IcpTracker::create(const IcpConfig& icp, const PreprocessConf
   }
   auto kernels = gpu::IcpKernels::create(
       impl->context, static_cast<std::size_t>(intrinsics.width) * intrinsics.height,
-      preprocess.workgroup_x, preprocess.workgroup_y, icp.depth_noise);
+      preprocess.workgroup_x, preprocess.workgroup_y, icp.depth_noise, icp.normal_gate);
   if (!kernels) return kernels.error();
   impl->kernels = std::move(*kernels);
   auto pre_seq = gpu::CommandSequence::create(impl->context, impl->frames[0].dispatch_count());

@@ -69,6 +69,7 @@ struct Reconstructor::Impl {
   RaycastBuffers model;
   std::optional<InertialNavigator> navigator;
   TrackingStateMachine machine;
+  PairingReference pairing;  // what this scan's aligned frames pair
 
   Trajectory trajectory;
   double last_constrained_time = 0;  // s: the last frame whose pose ICP fixed in all directions
@@ -199,6 +200,18 @@ struct Reconstructor::Impl {
     return {};
   }
 
+  // The first frame against the model it alone made, at its own pose: what an aligned frame of
+  // this sensor and scene pairs, the pairing reference until tracked frames replace it.
+  Status pair_with_own_model(FrameTimings& timings) {
+    gpu::GpuNormalEquationSource source(icp_kernels, icp_seq, current, reference, &timings.kernels);
+    const float min_cos = static_cast<float>(std::cos(config.icp.max_normal_angle_deg[0] * M_PI / 180.0));
+    auto eq = source.evaluate(0, Eigen::Isometry3d::Identity(), config.icp.max_distance[0], min_cos);
+    if (!eq) return eq.error();
+    if (eq->valid_pixels > 0 && eq->valid_information > 0)
+      pairing.add(eq->inlier_information / eq->valid_information, double(eq->inliers) / double(eq->valid_pixels));
+    return {};
+  }
+
   // Whether a raw depth measurement is kept by preprocessing: measured and within its range.
   bool valid_depth(std::uint16_t raw, double z) const {
     return raw != 0 && z >= config.preprocess.min_depth && z <= config.preprocess.max_depth;
@@ -225,10 +238,12 @@ struct Reconstructor::Impl {
     return n > 0 ? sum / static_cast<double>(n) : 0.0;
   }
 
-  // The reliability thresholds for this frame: the residual test widened to its depth noise.
+  // The reliability thresholds for this frame: the residual test widened to its depth noise,
+  // the pairing tests lowered to what this scan's aligned frames pair.
   IcpReliabilityThresholds reliability(const DepthImage& depth) const {
     IcpReliabilityThresholds t = config.icp.reliability;
     t.max_residual_per_weight = std::max(t.max_residual_per_weight, 2.0 * mean_noise_variance(depth));
+    pairing.apply(t.min_inlier_fraction, t.min_pixel_fraction);
     return t;
   }
 
@@ -354,9 +369,10 @@ struct Reconstructor::Impl {
     std::optional<Relocalization> best;
     IcpReliabilityThresholds plausible = reliability(depth);
     plausible.max_condition = std::numeric_limits<double>::infinity();
+    const double min_near_fraction = plausible.min_inlier_fraction;
     std::vector<Eigen::Vector3d> fits;  // where the frame fits but for the condition number
     for (const TranslationCandidate& c : candidates) {
-      if (c.near_fraction < config.icp.reliability.min_inlier_fraction) continue;
+      if (c.near_fraction < min_near_fraction) continue;
       Eigen::Isometry3d T_candidate = T_world_estimate;
       T_candidate.translation() = c.translation;
       IMUFUSION_RETURN_IF_ERROR(update_reference(T_candidate, timings));
@@ -570,6 +586,7 @@ Result<Reconstructor> Reconstructor::create(const ReconstructorConfig& config) {
   m.config = config;
   m.context = *context;
   m.machine = TrackingStateMachine(config.tracking);
+  m.pairing = PairingReference(config.tracking);
   const Intrinsics& k = config.intrinsics;
   const auto pixels = static_cast<std::size_t>(k.width) * k.height;
   for (gpu::Preprocessor* p : {&m.current, &m.reference}) {
@@ -584,7 +601,8 @@ Result<Reconstructor> Reconstructor::create(const ReconstructorConfig& config) {
   if (!icp_seq) return icp_seq.error();
   m.icp_seq = std::move(*icp_seq);
   auto kernels = gpu::IcpKernels::create(m.context, pixels, config.preprocess.workgroup_x,
-                                         config.preprocess.workgroup_y, config.icp.depth_noise);
+                                         config.preprocess.workgroup_y, config.icp.depth_noise,
+                                         config.icp.normal_gate);
   if (!kernels) return kernels.error();
   m.icp_kernels = std::move(*kernels);
   auto volume = gpu::TsdfVolume::create(m.context, config.volume, config.preprocess.workgroup_x,
@@ -662,6 +680,8 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
     r.recovery_restarted = m.disagrees_with_recovery(*icp, r, T_world_seed, T_world_icp);
     if (r.recovery_restarted) m.machine.restart_recovery();
     decision = m.machine.step(icp->reliable, icp->quality.converged, icp->partial, partial_may_fuse);
+    if (decision.status == TrackingStatus::kTracking && decision.source == PoseSource::kIcp)
+      m.pairing.add(icp->quality.inlier_fraction, icp->quality.pixel_fraction);
     m.seed_gate_holding = decision.status == TrackingStatus::kTracking && icp->quality.seed_gated_directions > 0;
     const bool icp_pose = decision.source == PoseSource::kIcp || decision.source == PoseSource::kIcpPartial;
     r.T_world_camera = icp_pose ? T_world_icp : T_world_seed;
@@ -716,6 +736,7 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
     m.field_current = false;
   }
   IMUFUSION_RETURN_IF_ERROR(m.update_reference(r.T_world_camera, r.timings));
+  if (decision.source == PoseSource::kInitial && decision.fuse) IMUFUSION_RETURN_IF_ERROR(m.pair_with_own_model(r.timings));
   m.trajectory.push_back({timestamp, r.T_world_camera});
   // The stretch ends at a recovery, or at a broken one: its recovering frames keep the poses ICP
   // placed them at, and the frames lost after them are dead-reckoned from there, so the stretch
@@ -822,6 +843,7 @@ Status Reconstructor::reset() {
   Impl& m = *impl_;
   IMUFUSION_RETURN_IF_ERROR(m.volume.reset());
   m.machine.reset();
+  m.pairing.reset();
   if (m.navigator) m.navigator->reset();
   m.trajectory.clear();
   m.has_reference = false;

@@ -25,7 +25,8 @@ std::vector<IcpRow> icp_associate(const Vec4Image& cur_vertices, const Vec4Image
                                   const Vec4Image& ref_vertices, const Vec4Image& ref_normals,
                                   const Intrinsics& ref_intrinsics,
                                   const Eigen::Isometry3d& T_ref_cur, double max_distance,
-                                  double min_normal_cos);
+                                  double min_normal_cos, const DepthNoiseModel& noise = {},
+                                  const NormalGate& gate = {});
 
 /// Sums of the accepted rows, and the noise information of the valid and of the paired pixels.
 NormalEquations icp_reduce(const std::vector<IcpRow>& rows, const DepthNoiseModel& noise);
@@ -33,7 +34,8 @@ NormalEquations icp_reduce(const std::vector<IcpRow>& rows, const DepthNoiseMode
 class CpuNormalEquationSource : public NormalEquationSource {
  public:
   CpuNormalEquationSource(PreprocessedFrame reference, PreprocessedFrame current,
-                          const Intrinsics& intrinsics, const DepthNoiseModel& noise = {});
+                          const Intrinsics& intrinsics, const DepthNoiseModel& noise = {},
+                          const NormalGate& gate = {});
   int levels() const override { return static_cast<int>(current_.vertices.size()); }
   Result<NormalEquations> evaluate(int level, const Eigen::Isometry3d& T_ref_cur,
                                    float max_distance, float min_normal_cos) override;
@@ -42,6 +44,7 @@ class CpuNormalEquationSource : public NormalEquationSource {
   PreprocessedFrame reference_, current_;
   Intrinsics intrinsics_;
   DepthNoiseModel noise_;
+  NormalGate gate_;
 };
 
 }  // namespace imufusion::reference
