@@ -6,7 +6,8 @@
 // trajectory.txt, frames.csv, mesh.glb, mesh.ply, preview.png, overview.png and summary.json,
 // each atomically; a failure or Ctrl-C mid-scan still writes the outputs of the frames done.
 // --imu-udp takes the IMU from a UDP stream instead of the sequence (scan_live.hpp); --record
-// writes the session (frames and IMU) as a sequence.
+// writes the session (frames and IMU) as a sequence; --frame-step N scans every Nth frame with
+// all of the IMU (frame_step.hpp).
 
 #include <algorithm>
 #include <csignal>
@@ -24,6 +25,7 @@
 
 #include "cli_numbers.hpp"
 #include "demo_sequence.hpp"
+#include "frame_step.hpp"
 #include "imufusion/eval.hpp"
 #include "imufusion/image_io.hpp"
 #include "imufusion/reconstructor.hpp"
@@ -56,7 +58,8 @@ struct Options {
   std::optional<TranslationModel> translation;
   int recovery_frames = TrackingConfig{}.recovery_frames;
   float voxel_size = 0.01f;
-  long max_frames = -1;
+  long max_frames = -1;  // scanned (kept) frames at most; -1: all
+  std::size_t frame_step = 1;
   std::string device;
   bool list_devices = false;
   bool quiet = false;
@@ -80,6 +83,7 @@ int usage(std::ostream& out, int code) {
          "                      [--estimate-imu-rotation] [--recovery-frames N] [--no-color]\n"
          "                      [--demo-dir DIR] [--demo-frames N] [--quiet] [--depth-mode WxH@FPS]\n"
          "                      [--realtime] [--imu-udp PORT] [--imu-udp-address ADDR] [--record DIR]\n"
+         "                      [--frame-step N]\n"
          "Scans SEQUENCE, a camera (openni2:// or openni2://URI) or a recording (FILE.oni) (default:\n"
          "the embedded demo room, synthesized into --demo-dir, default ./demo) and writes DIR (default ./scan)/trajectory.txt, frames.csv, mesh.glb, mesh.ply,\n"
          "preview.png, overview.png and summary.json.\n"
@@ -88,6 +92,10 @@ int usage(std::ostream& out, int code) {
       << kIcpIterationsWithImu << " with IMU, " << kIcpIterationsWithoutImu
       << " without)\n"
          "  --poses FILE             fuse with known camera-to-world poses (TUM format), no tracking\n"
+         "  --frames N               scan at most N frames (counted after --frame-step)\n"
+         "  --frame-step N           scan every Nth frame (0, N, 2N, ...: N times faster motion);\n"
+         "                           the IMU samples of skipped frames go with the next kept frame,\n"
+         "                           the outputs cover the kept frames only (default 1)\n"
          "  --estimate-imu-rotation  ignore imu_to_camera.txt and estimate the camera-IMU rotation\n"
          "  --depth-mode WxH@FPS     camera depth mode (default 640x480@30)\n"
          "  --realtime               deliver recorded frames at their recorded pace\n"
@@ -133,6 +141,9 @@ int parse(int argc, char** argv, Options& opt) {
       } else if (a == "--frames") {
         if (!integer || *integer < 1) return bad("a positive count");
         opt.max_frames = static_cast<long>(*integer);
+      } else if (a == "--frame-step") {
+        if (!integer || *integer < 1) return bad("an integer >= 1");
+        opt.frame_step = static_cast<std::size_t>(*integer);
       } else if (a == "--demo-frames") {
         if (!integer || *integer < 2 || *integer > 100000) return bad("a count of at least 2");
         opt.demo_frames = static_cast<int>(*integer);
@@ -252,6 +263,7 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
   if (run.frames_without_pose > 0) j["frames_without_pose"] = run.frames_without_pose;
   auto& s = j["settings"];
   s["mode"] = opt.poses.empty() ? "track" : "known_poses";
+  s["frame_step"] = opt.frame_step;
   s["imu"] = c.use_imu;
   s["imu_in_sequence"] = reader != nullptr && reader->has_imu();
   s["imu_source"] = !c.use_imu ? "none" : opt.imu_udp ? "udp" : "sequence";
@@ -290,7 +302,7 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
 Status write_outputs(const Options& opt, Reconstructor& rec, const ScanRun& run, const nlohmann::json& summary_in,
                      std::string* mesh_line) {
   IMUFUSION_RETURN_IF_ERROR(write_trajectory(opt.out / "trajectory.txt", rec.trajectory(),
-                                             "camera-to-world poses of imufusion-scan, one per input frame"));
+                                             "camera-to-world poses of imufusion-scan, one per scanned frame"));
   std::string csv = frames_csv_header() + "\n";
   for (std::size_t i = 0; i < run.frames.size(); ++i) csv += frames_csv_row(run.frames[i], run.blocks[i]) + "\n";
   IMUFUSION_RETURN_IF_ERROR(io::write_text_atomically(opt.out / "frames.csv", csv));
@@ -324,14 +336,6 @@ bool is_device_input(const fs::path& input) {
   return input.string().rfind("openni2://", 0) == 0 || input.extension() == ".oni";
 }
 
-// The next frame of the sequence (frame `i`), nullopt past its end.
-Result<std::optional<Frame>> next_from(SequenceReader& reader, std::size_t i) {
-  if (i >= reader.frame_count()) return std::optional<Frame>{};
-  auto frame = reader.next();
-  if (!frame) return frame.error();
-  return std::optional<Frame>(std::move(*frame));
-}
-
 // A recorder for --record: calibration, imu_to_camera and the sequence's info lines.
 Result<SessionRecorder> open_recorder(const Options& opt, const ReconstructorConfig& c, const SequenceReader* reader) {
   auto recorder = SessionRecorder::create(opt.record);
@@ -342,6 +346,127 @@ Result<SessionRecorder> open_recorder(const Options& opt, const ReconstructorCon
     for (const auto& [key, value] : reader->info().info) recorder->set_info(key, value);
   }
   return recorder;
+}
+
+// A sequence is read by SequenceReader (ground truth, info, frame count); cameras, .oni
+// recordings and paced sequences (--realtime) deliver their frames through a FrameSource.
+struct ScanInput {
+  std::optional<SequenceReader> reader;
+  std::unique_ptr<FrameSource> source;
+};
+
+// Opens `input` into `in`; returns the error message, empty on success.
+std::string open_input(const Options& opt, const fs::path& input, ScanInput& in) {
+  if (!is_device_input(input)) {
+    SequenceOptions sequence_options;
+    sequence_options.load_color = !opt.no_color;
+    auto opened = SequenceReader::open(input, sequence_options);
+    if (!opened) return opened.error().describe();
+    if (!opened->intrinsics()) return (input / "calibration.txt").string() + " is missing";
+    if (opened->frame_count() == 0) return (input / "depth.txt").string() + " lists no frames";
+    in.reader = std::move(*opened);
+  }
+  if (!in.reader || opt.realtime) {
+    SourceOptions source_options;
+    source_options.depth_mode = opt.depth_mode;
+    source_options.color = !opt.no_color;
+    source_options.realtime = opt.realtime;
+    source_options.sequence.load_color = !opt.no_color;
+    auto opened = open_frame_source(input.string(), source_options);
+    if (!opened) return opened.error().describe();
+    in.source = std::move(*opened);
+  }
+  return {};
+}
+
+// --frames: the most frames scanned (after --frame-step).
+std::size_t frame_limit(const Options& opt) {
+  return opt.max_frames > 0 ? static_cast<std::size_t>(opt.max_frames) : SIZE_MAX;
+}
+
+// One frame tracked and fused, or fused at its pose from --poses (nullopt: --poses has none).
+Result<std::optional<FrameResult>> scan_one(const Options& opt, Reconstructor& rec,
+                                            const Trajectory& known, const Frame& frame) {
+  const ColorImage* color = frame.color ? &*frame.color : nullptr;
+  Result<FrameResult> result = make_error(ErrorCode::kInternal, "no frame");
+  if (!opt.poses.empty()) {
+    const StampedPose* pose = find_pose(known, frame.timestamp);
+    if (pose == nullptr) return std::optional<FrameResult>{};
+    result = rec.fuse_with_pose(frame.timestamp, frame.depth, color, pose->T_world_camera, frame.imu);
+  } else {
+    result = rec.track_and_fuse(frame.timestamp, frame.depth, color, frame.imu);
+  }
+  if (!result) return result.error();
+  return std::optional<FrameResult>(std::move(*result));
+}
+
+// What the scan loop reads: the kept frames (`total` of them expected, 0 when unknown), the UDP
+// IMU stream and the recorder (each optional), and the poses of --poses.
+struct ScanInputs {
+  tools::SteppedFrames& frames;
+  std::size_t total;
+  std::optional<tools::LiveImu>& imu;
+  std::optional<SessionRecorder>& recorder;
+  const Trajectory& known;
+};
+
+// Scans until the input ends, --frames frames are done, a frame fails or Ctrl-C, then settles a
+// scan that ends while recovering (Reconstructor::finish). Returns the exit code.
+int scan_frames(const Options& opt, Reconstructor& rec, ScanInputs in, ScanRun& run) {
+  const std::size_t limit = frame_limit(opt);
+  const bool progress = !opt.quiet && isatty(STDERR_FILENO);
+  int exit_code = 0;
+  double elapsed_ms = 0;
+  for (std::size_t i = 0; i < limit; ++i) {
+    if (g_interrupted) {
+      run.stopped = "interrupted after " + std::to_string(i) + " frames";
+      exit_code = 130;
+      break;
+    }
+    auto next = in.frames.next();
+    if (!next) {
+      run.stopped = next.error().describe();
+      exit_code = 1;
+      break;
+    }
+    if (!*next) break;  // the end of the recording
+    Frame& frame = **next;
+    // The recorder takes IMU samples on the IMU's clock: the sequence's are on the frame clock
+    // already, the stream's are mapped for tracking and shifted by the final offset at finish().
+    std::vector<ImuSample> imu_raw = frame.imu;
+    if (in.imu) frame.imu = in.imu->take(frame.timestamp, &imu_raw);
+    if (in.recorder) {
+      in.recorder->push_imu(imu_raw);
+      in.recorder->push_frame(frame);
+    }
+    auto result = scan_one(opt, rec, in.known, frame);
+    if (!result) {
+      run.stopped = "frame " + std::to_string(i) + " (t=" + std::to_string(frame.timestamp) + "): " +
+                    result.error().describe();
+      exit_code = 1;
+      break;
+    }
+    if (!*result) {
+      ++run.frames_without_pose;
+      continue;
+    }
+    elapsed_ms += (*result)->timings.total_ms;
+    if (in.imu) in.imu->observe(**result);
+    run.frames.push_back(std::move(**result));
+    run.blocks.push_back(rec.allocated_blocks());
+    if (progress) show_progress(i + 1, in.total, run.frames.back(), 1000.0 * static_cast<double>(run.frames.size()) / elapsed_ms);
+  }
+  if (progress) std::fputc('\n', stderr);
+  if (!run.frames.empty()) {
+    auto placed = rec.finish();
+    if (placed) {
+      run.frames.back().retracked += *placed;
+    } else if (run.stopped.empty()) {
+      run.stopped = "ending the scan: " + placed.error().describe();
+      exit_code = 1;
+    }
+  }
+  return exit_code;
 }
 
 }  // namespace
@@ -357,29 +482,10 @@ int main(int argc, char** argv) {
     if (!demo) return fail(demo.error().describe());
     input = *demo;
   }
-  // A sequence is read by SequenceReader (ground truth, info, frame count); cameras, .oni
-  // recordings and paced sequences (--realtime) deliver their frames through a FrameSource.
-  std::optional<SequenceReader> reader;
-  if (!is_device_input(input)) {
-    SequenceOptions sequence_options;
-    sequence_options.load_color = !opt.no_color;
-    auto opened = SequenceReader::open(input, sequence_options);
-    if (!opened) return fail(opened.error().describe());
-    if (!opened->intrinsics()) return fail((input / "calibration.txt").string() + " is missing");
-    if (opened->frame_count() == 0) return fail((input / "depth.txt").string() + " lists no frames");
-    reader = std::move(*opened);
-  }
-  std::unique_ptr<FrameSource> source;
-  if (!reader || opt.realtime) {
-    SourceOptions source_options;
-    source_options.depth_mode = opt.depth_mode;
-    source_options.color = !opt.no_color;
-    source_options.realtime = opt.realtime;
-    source_options.sequence.load_color = !opt.no_color;
-    auto opened = open_frame_source(input.string(), source_options);
-    if (!opened) return fail(opened.error().describe());
-    source = std::move(*opened);
-  }
+  ScanInput in;
+  if (const std::string error = open_input(opt, input, in); !error.empty()) return fail(error);
+  std::optional<SequenceReader>& reader = in.reader;
+  std::unique_ptr<FrameSource>& source = in.source;
   Trajectory known;
   if (!opt.poses.empty()) {
     auto read = read_trajectory(opt.poses);
@@ -412,70 +518,12 @@ int main(int argc, char** argv) {
   if (imu && !opt.quiet) std::cerr << "imu: listening on " << imu->endpoint() << std::endl;
 
   std::signal(SIGINT, on_interrupt);
-  const std::size_t limit = opt.max_frames > 0 ? static_cast<std::size_t>(opt.max_frames) : SIZE_MAX;
-  const std::size_t total = reader ? std::min(reader->frame_count(), limit) : (opt.max_frames > 0 ? limit : 0);
-  const bool progress = !opt.quiet && isatty(STDERR_FILENO);
+  const std::size_t limit = frame_limit(opt);
+  tools::SteppedFrames frames(source ? nullptr : &*reader, source.get(), opt.frame_step);
+  const std::size_t total =
+      reader ? std::min(frames.kept_of(reader->frame_count()), limit) : (opt.max_frames > 0 ? limit : 0);
   ScanRun run;
-  int exit_code = 0;
-  double elapsed_ms = 0;
-  for (std::size_t i = 0; i < limit; ++i) {
-    if (g_interrupted) {
-      run.stopped = "interrupted after " + std::to_string(i) + " frames";
-      exit_code = 130;
-      break;
-    }
-    auto next = source ? source->next() : next_from(*reader, i);
-    if (!next) {
-      run.stopped = next.error().describe();
-      exit_code = 1;
-      break;
-    }
-    if (!*next) break;  // the end of the recording
-    Frame& frame = **next;
-    // The recorder takes IMU samples on the IMU's clock: the sequence's are on the frame clock
-    // already, the stream's are mapped for tracking and shifted by the final offset at finish().
-    std::vector<ImuSample> imu_raw = frame.imu;
-    if (imu) frame.imu = imu->take(frame.timestamp, &imu_raw);
-    if (recorder) {
-      recorder->push_imu(imu_raw);
-      recorder->push_frame(frame);
-    }
-    const ColorImage* color = frame.color ? &*frame.color : nullptr;
-    Result<FrameResult> result = make_error(ErrorCode::kInternal, "no frame");
-    if (!opt.poses.empty()) {
-      const StampedPose* pose = find_pose(known, frame.timestamp);
-      if (pose == nullptr) {
-        ++run.frames_without_pose;
-        continue;
-      }
-      result = rec->fuse_with_pose(frame.timestamp, frame.depth, color, pose->T_world_camera, frame.imu);
-    } else {
-      result = rec->track_and_fuse(frame.timestamp, frame.depth, color, frame.imu);
-    }
-    if (!result) {
-      run.stopped = "frame " + std::to_string(i) + " (t=" + std::to_string(frame.timestamp) + "): " +
-                    result.error().describe();
-      exit_code = 1;
-      break;
-    }
-    elapsed_ms += result->timings.total_ms;
-    if (imu) imu->observe(*result);
-    run.frames.push_back(std::move(*result));
-    run.blocks.push_back(rec->allocated_blocks());
-    if (progress) show_progress(i + 1, total, run.frames.back(), 1000.0 * static_cast<double>(run.frames.size()) / elapsed_ms);
-  }
-  if (progress) std::fputc('\n', stderr);
-  // A scan that ends while recovering: its last lost stretch is settled before the trajectory is
-  // written (Reconstructor::finish).
-  if (!run.frames.empty()) {
-    auto placed = rec->finish();
-    if (placed) {
-      run.frames.back().retracked += *placed;
-    } else if (run.stopped.empty()) {
-      run.stopped = "ending the scan: " + placed.error().describe();
-      exit_code = 1;
-    }
-  }
+  int exit_code = scan_frames(opt, *rec, ScanInputs{frames, total, imu, recorder, known}, run);
   if (!run.stopped.empty()) std::cerr << (exit_code == 130 ? "stopped: " : "error: ") << run.stopped << "\n";
   nlohmann::json recording;
   if (recorder) {

@@ -1,6 +1,7 @@
 // Runs the built imufusion-scan on small synthetic sequences: its outputs (trajectory, frames.csv,
-// mesh, preview, summary.json with ATE), the wall scan where depth alone cannot track (IMU:
-// every frame of the stretch reported lost and left unfused), known poses, the demo, and bad input.
+// mesh, preview, summary.json with ATE), --frame-step, the wall scan where depth alone cannot
+// track (IMU: every frame of the stretch reported lost and left unfused), known poses, the demo,
+// and bad input.
 
 #include <gtest/gtest.h>
 
@@ -101,6 +102,52 @@ TEST_F(ScanTool, ScansARoomWithTheImuAndWritesEveryOutput) {
   auto mesh = read_mesh(out / "mesh.glb");
   ASSERT_TRUE(mesh.ok()) << mesh.error().describe();
   EXPECT_EQ(mesh->triangles.size(), summary["mesh_triangles"].get<std::size_t>());
+}
+
+// --frame-step 2 scans frames 0, 2, 4, ... (half the frames, rounded up) and the outputs cover
+// those only. The samples of each skipped frame reach the scanner with the next kept frame: the
+// gyro covers every kept frame's whole interval since the previous one (about half without them).
+TEST_F(ScanTool, FrameStepScansEveryNthFrameWithAllTheImu) {
+  const fs::path seq = synthesize(scratch_.path(), "room_step", synth::SceneKind::kRoom, 15, 31);
+  const fs::path out = path("step2");
+  const auto run = scan(seq.string() + " --frame-step 2 --out " + out.string() + " --quiet");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("scanned 8 frames"), std::string::npos) << run.out;
+
+  auto truth = read_trajectory(seq / "groundtruth.txt");
+  auto trajectory = read_trajectory(out / "trajectory.txt");
+  ASSERT_TRUE(truth.ok() && trajectory.ok());
+  std::istringstream index(test::read_text(seq / "depth.txt"));
+  std::vector<double> stamps;
+  for (std::string line; std::getline(index, line);)
+    if (!line.empty() && line[0] != '#') stamps.push_back(std::stod(line));
+  ASSERT_EQ(stamps.size(), 15u);
+  ASSERT_EQ(trajectory->size(), 8u);
+  for (std::size_t i = 0; i < trajectory->size(); ++i)
+    EXPECT_NEAR((*trajectory)[i].timestamp, stamps[2 * i], 1e-6) << "kept frame " << i;
+
+  const auto rows = read_csv(out / "frames.csv");
+  ASSERT_EQ(rows.size(), 8u);
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    EXPECT_EQ(rows[i].at("status"), "tracking") << "kept frame " << i;
+    EXPECT_EQ(rows[i].at("imu_rotation"), "1") << "kept frame " << i;
+    EXPECT_GT(std::stod(rows[i].at("imu_coverage")), 0.9) << "kept frame " << i;
+  }
+  const auto summary = read_json(out / "summary.json");
+  EXPECT_EQ(summary["frames"], 8);
+  EXPECT_EQ(summary["settings"]["frame_step"], 2);
+  ASSERT_TRUE(summary.contains("ate")) << summary.dump();
+  EXPECT_EQ(summary["ate"]["matched"], 8);
+  EXPECT_LT(summary["ate"]["rmse"].get<double>(), 0.015);
+}
+
+TEST_F(ScanTool, ABadFrameStepIsRefusedNamingIt) {
+  for (const std::string value : {"0", "x", "-3", "1.5"}) {
+    const auto run = scan("x --frame-step " + value);
+    EXPECT_EQ(run.exit_code, 2) << value;
+    EXPECT_NE(run.err.find("--frame-step"), std::string::npos) << run.err;
+    EXPECT_NE(run.err.find("'" + value + "'"), std::string::npos) << run.err;
+  }
 }
 
 // Facing a bare wall, ICP is degenerate: with or without the IMU those frames must be reported

@@ -62,6 +62,7 @@ TranslationErrors run(const AnalyticMotion& m, TranslationModel model, double se
   config.T_camera_imu = m.T_camera_imu;
   config.translation = model;
   config.estimate_gyro_bias = false;
+  config.max_speed = 100;  // the analytic motion speeds up for seconds, past any hand-held device
   InertialNavigator nav = InertialNavigator::create(config).value();
   EXPECT_TRUE(nav.add_samples(m.samples(0.0, seconds + 0.1)).ok());
   std::vector<double> errors;
@@ -120,6 +121,7 @@ DeadReckoning dead_reckon(const AnalyticMotion& m, const InertialConfig& base, d
   InertialConfig config = base;
   config.T_camera_imu = m.T_camera_imu;
   config.estimate_gyro_bias = false;
+  config.max_speed = 100;
   InertialNavigator nav = InertialNavigator::create(config).value();
   EXPECT_TRUE(nav.add_samples(m.samples(0.0, tracked + dark + 0.1)).ok());
   const double dt = 1.0 / 30.0;
@@ -252,6 +254,50 @@ TEST(InertialTranslation, ACorrectedVelocityMovesTheNextPrediction) {
   nav.forget_velocity();
   nav.correct_velocity(dv);
   EXPECT_FALSE(nav.predict(5 * dt, 6 * dt).translation_predicted);
+}
+
+// Tracks a device at rest for 3 s, gives the navigator a velocity error `dv` (world, m/s), then
+// dead-reckons for `dark` s; the position error at the end (m).
+double drift_from_velocity_error(const InertialConfig& base, const Eigen::Vector3d& dv, double dark) {
+  AnalyticMotion m;
+  m.omega_camera.setZero();
+  m.v0.setZero();
+  InertialConfig config = base;
+  config.T_camera_imu = m.T_camera_imu;
+  config.estimate_gyro_bias = false;
+  config.max_velocity_sigma = 10;  // keep predicting: the bounds alone must hold the position
+  InertialNavigator nav = InertialNavigator::create(config).value();
+  EXPECT_TRUE(nav.add_samples(m.samples(0.0, 3.0 + dark + 0.1)).ok());
+  const double dt = 1.0 / 30.0;
+  Eigen::Isometry3d pose = m.pose(0.0);
+  const int tracked = 90, frames = tracked + static_cast<int>(std::lround(dark / dt));
+  for (int k = 1; k <= frames; ++k) {
+    const double ta = (k - 1) * dt, tb = k * dt;
+    if (k == tracked + 1) nav.correct_velocity(dv);
+    const bool reliable = k <= tracked;
+    const Eigen::Isometry3d next = reliable ? m.pose(tb) : pose * nav.predict(ta, tb).T_a_b;
+    nav.observe(ta, tb, pose, next, reliable);
+    pose = next;
+  }
+  return (pose.translation() - m.pose(frames * dt).translation()).norm();
+}
+
+TEST(InertialTranslation, LongDeadReckoningStaysWhereAHandHeldDeviceCanBe) {
+  // A velocity error carried into a loss: held, it moves the position linearly for ever; bounded,
+  // the accelerometer carries it for accelerometer_dead_reckoning_time, then it decays.
+  InertialConfig bounded;
+  InertialConfig unbounded = bounded;
+  unbounded.accelerometer_dead_reckoning_time = 1e9;
+  unbounded.max_speed = 1e9;
+  const Eigen::Vector3d dv(0.4, -0.2, 0.2);
+  const double dark = 20.0;
+  EXPECT_NEAR(drift_from_velocity_error(unbounded, dv, dark), dv.norm() * dark, 0.01);
+  const double reach = dv.norm() * (bounded.accelerometer_dead_reckoning_time + bounded.velocity_decay_time);
+  EXPECT_NEAR(drift_from_velocity_error(bounded, dv, dark), reach, 0.05 * reach);
+  // A speed no hand-held device reaches is capped.
+  const Eigen::Vector3d fast = 5.0 * dv.normalized();
+  const double capped = bounded.max_speed * (bounded.accelerometer_dead_reckoning_time + bounded.velocity_decay_time);
+  EXPECT_NEAR(drift_from_velocity_error(bounded, fast, dark), capped, 0.05 * capped);
 }
 
 TEST(InertialTranslation, ModelNamesRoundTrip) {

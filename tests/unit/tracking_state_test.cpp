@@ -182,3 +182,34 @@ TEST(TrackingStateMachine, PartialIcpNeitherRecoversNorCountsWhileLost) {
   expect(m.step(true, true), TrackingStatus::kTracking, PoseSource::kIcp, true);
 }
 
+
+TEST(PairingReference, LowersThePairingTestsToWhatAlignedFramesPair) {
+  TrackingConfig config;
+  config.pairing_window = 3;
+  config.pairing_ratio = 0.5;
+  config.pairing_floor = 0.1;
+  PairingReference reference(config);
+  double inlier = 0.4, pixel = 0.35;
+  reference.apply(inlier, pixel);  // nothing seen yet: the absolute thresholds
+  EXPECT_EQ(inlier, 0.4);
+  EXPECT_EQ(pixel, 0.35);
+  for (double f : {0.30, 0.26, 0.28}) reference.add(f, f - 0.05);
+  inlier = 0.4, pixel = 0.35;
+  reference.apply(inlier, pixel);
+  EXPECT_DOUBLE_EQ(inlier, 0.5 * 0.28);  // half the median
+  EXPECT_DOUBLE_EQ(pixel, 0.5 * 0.23);
+  reference.add(0.9, 0.9);  // a clean sensor: never stricter than the absolute thresholds
+  reference.add(0.9, 0.9);
+  inlier = 0.4, pixel = 0.35;
+  reference.apply(inlier, pixel);
+  EXPECT_EQ(inlier, 0.4);
+  EXPECT_EQ(pixel, 0.35);
+  for (int i = 0; i < 3; ++i) reference.add(0.05, 0.05);  // the window forgets; the floor holds
+  inlier = 0.4, pixel = 0.35;
+  reference.apply(inlier, pixel);
+  EXPECT_EQ(inlier, 0.1);
+  EXPECT_EQ(pixel, 0.1);
+  EXPECT_EQ(reference.size(), 3u);
+  reference.reset();
+  EXPECT_EQ(reference.size(), 0u);
+}

@@ -105,6 +105,13 @@ struct InertialConfig {
   double accelerometer_process_noise = 0.08;
   /// m/s: above this velocity uncertainty no translation is predicted.
   double max_velocity_sigma = 0.3;
+  /// Dead reckoning stays where a hand-held device can be: s without a tracked frame after
+  /// which the accelerometer no longer drives the velocity (gravity and bias errors grow its
+  /// drift with t^3) and the velocity decays to zero with time constant velocity_decay_time (s);
+  /// m/s: the speed is never above max_speed (bench/README.md, "Bounded dead reckoning").
+  double accelerometer_dead_reckoning_time = 2.0;
+  double velocity_decay_time = 0.5;
+  double max_speed = 2.0;
   /// s: reliable tracked time before gravity is trusted; and the forgetting time constant of
   /// the gravity and accelerometer-bias estimate.
   double gravity_min_time = 1.0;

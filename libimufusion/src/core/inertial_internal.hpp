@@ -240,8 +240,12 @@ class VelocityFilter {
   /// The filter's part of step(): propagation and, for a reliable pair, the measurement update.
   void update_velocity(double dt, const Eigen::Vector3d& p_a, const Eigen::Vector3d& p_b, bool reliable,
                        const ImuIntegration* integration);
+  /// Caps the speed at max_speed_ (the velocity's direction kept).
+  void cap_speed();
   TranslationModel model_;
   double position_sigma_, cv_noise_, accel_noise_, max_sigma_;
+  double accel_time_, decay_time_, max_speed_;
+  double unmeasured_time_ = 0;  // s since the last tracked measurement of the velocity
   double gravity_min_time_;
   Eigen::Vector3d v_ = Eigen::Vector3d::Zero();
   double P_ = 0;  // velocity variance per axis, (m/s)^2

@@ -37,6 +37,9 @@ VelocityFilter::VelocityFilter(const InertialConfig& config)
       cv_noise_(config.constant_velocity_process_noise),
       accel_noise_(config.accelerometer_process_noise),
       max_sigma_(config.max_velocity_sigma),
+      accel_time_(config.accelerometer_dead_reckoning_time),
+      decay_time_(config.velocity_decay_time),
+      max_speed_(config.max_speed),
       gravity_min_time_(config.gravity_min_time),
       gravity_(config.tracking_position_sigma, config.accelerometer_bias_prior_sigma,
                config.gravity_chain_time, config.gravity_time_constant) {}
@@ -44,8 +47,13 @@ VelocityFilter::VelocityFilter(const InertialConfig& config)
 VelocityFilter::Propagation VelocityFilter::propagate(double dt,
                                                       const ImuIntegration* integration) const {
   Propagation out;
-  if (model_ == TranslationModel::kAccelerometer && gravity_ready() && integration != nullptr &&
-      integration->complete) {
+  if (unmeasured_time_ >= accel_time_) {
+    // Long untracked: the velocity decays to zero (exactly integrated over dt).
+    const double keep = std::exp(-dt / decay_time_);
+    out.velocity_b = v_ * keep;
+    out.delta_p = v_ * decay_time_ * (1.0 - keep);
+  } else if (model_ == TranslationModel::kAccelerometer && gravity_ready() && integration != nullptr &&
+             integration->complete) {
     const Eigen::Vector3d& g = gravity_.gravity();
     const Eigen::Vector3d& b = gravity_.accel_bias();
     out.velocity_b = v_ + integration->delta_v - integration->Jv_accel * b + g * dt;
@@ -88,7 +96,12 @@ void VelocityFilter::update_velocity(double dt, const Eigen::Vector3d& p_a, cons
   const Eigen::Vector3d v_a = v_;
   v_ = prop.velocity_b;
   P_ += q * q * dt;
-  if (!reliable) return;
+  if (!reliable) {
+    unmeasured_time_ += dt;
+    cap_speed();
+    return;
+  }
+  unmeasured_time_ = 0;
 
   // The end velocity implied by the tracked displacement: with the accelerometer, the
   // displacement's shape within the pair is known (v_b = mean + dv - dp / dt); without it, the
@@ -100,11 +113,18 @@ void VelocityFilter::update_velocity(double dt, const Eigen::Vector3d& p_a, cons
   const double K = P_ / (P_ + measurement_var);
   v_ += K * (z - v_);
   P_ *= 1.0 - K;
+  cap_speed();
+}
+
+void VelocityFilter::cap_speed() {
+  const double speed = v_.norm();
+  if (speed > max_speed_) v_ *= max_speed_ / speed;
 }
 
 void VelocityFilter::reset_velocity() {
   v_.setZero();
   P_ = 0;
+  unmeasured_time_ = 0;
   initialized_ = false;
   gravity_.interrupt();
 }
