@@ -282,6 +282,7 @@ TEST_F(ReconstructorTest, PlacesTheLostFramesBackwardFromTheRecovery) {
     c.relocalization_drift_acceleration = 50;  // the search must reach as far as the jolt drifts
     c.relocalization_interval = 8;
     c.inertial.gravity_min_time = 0.3;  // the accelerometer in use (and jolted) within this short scan
+    c.inertial.max_speed = 100;  // the 6 m/s fault uncapped: dead reckoning must drift out of ICP's reach
     Reconstructor rec = make(c);
     results = scan_jolted(
         rec, frames_.size() - 1, [&](std::size_t i) { return i == blank_begin ? 180.0 : 0.0; },

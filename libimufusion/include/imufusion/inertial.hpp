@@ -109,7 +109,7 @@ struct InertialConfig {
   /// which the accelerometer no longer drives the velocity (gravity and bias errors grow its
   /// drift with t^3) and the velocity decays to zero with time constant velocity_decay_time (s);
   /// m/s: the speed is never above max_speed (bench/README.md, "Bounded dead reckoning").
-  double accelerometer_dead_reckoning_time = 2.0;
+  double accelerometer_dead_reckoning_time = 6.0;
   double velocity_decay_time = 0.5;
   double max_speed = 2.0;
   /// s: reliable tracked time before gravity is trusted; and the forgetting time constant of
