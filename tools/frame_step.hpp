@@ -42,8 +42,7 @@ class SteppedFrames {
     ++kept_;
     if (!frame) return frame.error();
     if (index > 0 && step_ > 1) {
-      frame->imu = samples_in(reader_->imu(), reader_->info().depth[index - step_].timestamp,
-                              frame->timestamp);
+      frame->imu = reader_->imu_between(reader_->info().depth[index - step_].timestamp, frame->timestamp);
     }
     return std::optional<Frame>(std::move(*frame));
   }
@@ -64,15 +63,6 @@ class SteppedFrames {
     std::vector<ImuSample>& imu = (*frame)->imu;
     imu.insert(imu.begin(), skipped.begin(), skipped.end());
     return frame;
-  }
-
-  // The samples with timestamp in (from, to] (seconds), as SequenceReader hands them per frame.
-  static std::vector<ImuSample> samples_in(const std::vector<ImuSample>& imu, double from,
-                                           double to) {
-    auto after = [](double t, const ImuSample& s) { return t < s.timestamp; };
-    const auto begin = std::upper_bound(imu.begin(), imu.end(), from, after);
-    const auto end = std::upper_bound(begin, imu.end(), to, after);
-    return {begin, end};
   }
 
   SequenceReader* reader_;

@@ -58,6 +58,11 @@ struct NormalEquations {
   std::uint64_t valid_pixels = 0;
   double valid_information = 0;
   double inlier_information = 0;
+
+  /// The paired share of the valid pixels, each counted by its information (0 when none).
+  double inlier_fraction() const { return valid_information > 0 ? inlier_information / valid_information : 0; }
+  /// The paired share of the valid pixels, each counting one (0 when none).
+  double pixel_fraction() const { return valid_pixels > 0 ? double(inliers) / double(valid_pixels) : 0; }
 };
 
 /// Thresholds of the reliable / unreliable decision, measured with bench/icp_calibration on 1080

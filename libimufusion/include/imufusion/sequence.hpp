@@ -115,6 +115,9 @@ class SequenceReader {
   const Trajectory& ground_truth() const;
   bool has_imu() const;
   const std::vector<ImuSample>& imu() const;
+  /// The IMU samples with timestamps in (from, to] (seconds), as frame() gives each frame those
+  /// since the frame before it.
+  std::vector<ImuSample> imu_between(double from, double to) const;
 
   /// Decodes frame `index`. Fails, naming the file, on an unreadable, truncated or corrupt image,
   /// a depth PNG that is not 16-bit grayscale, a depth size different from the sequence's, or a

@@ -244,8 +244,8 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
       IcpQuality& q = result.quality;
       q.inliers = eq->inliers;
       q.weight_sum = eq->weight_sum;
-      q.inlier_fraction = eq->valid_information > 0 ? eq->inlier_information / eq->valid_information : 0;
-      q.pixel_fraction = eq->valid_pixels > 0 ? double(eq->inliers) / double(eq->valid_pixels) : 0;
+      q.inlier_fraction = eq->inlier_fraction();
+      q.pixel_fraction = eq->pixel_fraction();
       q.condition = step.condition;
       q.residual = step.residual;
       q.residual_per_inlier = eq->inliers > 0 ? step.residual / double(eq->inliers) : 0;

@@ -207,8 +207,7 @@ struct Reconstructor::Impl {
     const float min_cos = static_cast<float>(std::cos(config.icp.max_normal_angle_deg[0] * M_PI / 180.0));
     auto eq = source.evaluate(0, Eigen::Isometry3d::Identity(), config.icp.max_distance[0], min_cos);
     if (!eq) return eq.error();
-    if (eq->valid_pixels > 0 && eq->valid_information > 0)
-      pairing.add(eq->inlier_information / eq->valid_information, double(eq->inliers) / double(eq->valid_pixels));
+    if (eq->valid_pixels > 0 && eq->valid_information > 0) pairing.add(eq->inlier_fraction(), eq->pixel_fraction());
     return {};
   }
 
@@ -369,10 +368,9 @@ struct Reconstructor::Impl {
     std::optional<Relocalization> best;
     IcpReliabilityThresholds plausible = reliability(depth);
     plausible.max_condition = std::numeric_limits<double>::infinity();
-    const double min_near_fraction = plausible.min_inlier_fraction;
     std::vector<Eigen::Vector3d> fits;  // where the frame fits but for the condition number
     for (const TranslationCandidate& c : candidates) {
-      if (c.near_fraction < min_near_fraction) continue;
+      if (c.near_fraction < plausible.min_inlier_fraction) continue;
       Eigen::Isometry3d T_candidate = T_world_estimate;
       T_candidate.translation() = c.translation;
       IMUFUSION_RETURN_IF_ERROR(update_reference(T_candidate, timings));

@@ -100,14 +100,19 @@ Result<Frame> SequenceReader::frame(std::size_t index) const {
     frame.color_timestamp = color_entry.timestamp;
   }
 
-  // Samples in (from, to]: upper_bound finds the first stamp strictly after a bound.
   const double from = index == 0 ? entry.timestamp - state_->options.first_frame_imu_lookback
                                  : info.depth[index - 1].timestamp;
+  frame.imu = imu_between(from, entry.timestamp);
+  return frame;
+}
+
+std::vector<ImuSample> SequenceReader::imu_between(double from, double to) const {
+  // upper_bound finds the first stamp strictly after a bound.
   const auto& stamps = state_->imu_stamps;
   const auto begin = std::upper_bound(stamps.begin(), stamps.end(), from) - stamps.begin();
-  const auto end = std::upper_bound(stamps.begin(), stamps.end(), entry.timestamp) - stamps.begin();
-  if (end > begin) frame.imu.assign(info.imu.begin() + begin, info.imu.begin() + end);
-  return frame;
+  const auto end = std::upper_bound(stamps.begin(), stamps.end(), to) - stamps.begin();
+  if (end <= begin) return {};
+  return {state_->info.imu.begin() + begin, state_->info.imu.begin() + end};
 }
 
 Result<Frame> SequenceReader::next() {
