@@ -339,8 +339,10 @@ TEST(IcpReduce, PixelsCountInTheInlierFractionByTheirInformation) {
 // Gauss-Newton step from any pose lands on the minimum.
 class QuadraticSource : public NormalEquationSource {
  public:
-  QuadraticSource(const Eigen::Matrix<double, 6, 1>& s, const Eigen::Matrix<double, 6, 1>& target)
-      : AtA_(s.asDiagonal()), target_(target) {}
+  // `paired`: the inlier fraction the source reports (of the information and of the pixels).
+  QuadraticSource(const Eigen::Matrix<double, 6, 1>& s, const Eigen::Matrix<double, 6, 1>& target,
+                  double paired = 1.0)
+      : AtA_(s.asDiagonal()), target_(target), paired_(paired) {}
   int levels() const override { return 1; }
   Result<NormalEquations> evaluate(int, const Eigen::Isometry3d& T, float, float) override {
     Eigen::Matrix<double, 6, 1> at;
@@ -353,14 +355,17 @@ class QuadraticSource : public NormalEquationSource {
     eq.Atb = AtA_ * dx;
     eq.weight_sum = 5000;
     eq.btb = dx.dot(AtA_ * dx) + 1e-6 * eq.weight_sum;  // a residual of 1 mm per unit weight
-    eq.inliers = eq.valid_pixels = 5000;
-    eq.valid_information = eq.inlier_information = 5000;
+    eq.inliers = 5000;
+    eq.inlier_information = 5000;
+    eq.valid_pixels = static_cast<std::uint64_t>(5000 / paired_);
+    eq.valid_information = 5000 / paired_;
     return eq;
   }
 
  private:
   Eigen::Matrix<double, 6, 6> AtA_;
   Eigen::Matrix<double, 6, 1> target_;
+  double paired_;
 };
 
 // The strong directions need 1 mm / 0.06 deg of motion; tz, kappa 200, the weak one, `weak_m`.
@@ -433,6 +438,67 @@ TEST(IcpSeedGate, StrongDirectionsAndUnknownSeedsAreNotGated) {
   EXPECT_NEAR(ungated->T_ref_cur.translation().z(), 0.008, 1e-6);
 }
 
+IcpConfig prior_config() {
+  IcpConfig config;
+  config.seed_prior = true;
+  config.seed_sigma_rotation = 0.0005;
+  config.seed_sigma_translation = 0.001;
+  return config;
+}
+
+TEST(IcpSeedPrior, EachDirectionIsWeighedBetweenTheDepthAndTheSeed) {
+  // The depth's information along an axis: s_i / (c s^2), c = 49 pixels, s^2 = the larger of
+  // r/sum(w) (1 mm^2) and the sensor's least noise (1.2 mm)^2.
+  const Eigen::Matrix<double, 6, 1> s = gate_singular_values();
+  const double scale = 1 / (49 * 0.0012 * 0.0012);
+  const double prior = 1 / (0.001 * 0.001);
+  QuadraticSource source(s, gate_target(0.008));
+  auto result = run_icp(source, prior_config(), Eigen::Isometry3d::Identity());
+  ASSERT_TRUE(result.ok());
+  // tz (s = 100): depth 1.4e6 against the prediction's 1e6, 59 % of ICP's 8 mm.
+  const double weak = 0.008 * s(5) * scale / (s(5) * scale + prior);
+  EXPECT_NEAR(result->T_ref_cur.translation().z(), weak, 1e-5);
+  EXPECT_LT(result->T_ref_cur.translation().z(), 0.006);
+  // tx (s = 2e4): the depth outweighs the prediction 280 to 1.
+  EXPECT_NEAR(result->T_ref_cur.translation().x(), 0.001, 1e-5);
+  EXPECT_TRUE(result->reliable) << result->reason;
+  // Without a translation sigma there is no prior: ICP's pose whole.
+  IcpConfig rotation_only = prior_config();
+  rotation_only.seed_sigma_translation = 0;
+  QuadraticSource again(s, gate_target(0.008));
+  auto depth_only = run_icp(again, rotation_only, Eigen::Isometry3d::Identity());
+  ASSERT_TRUE(depth_only.ok());
+  EXPECT_NEAR(depth_only->T_ref_cur.translation().z(), 0.008, 1e-6);
+  EXPECT_EQ(depth_only->quality.seed_chi2, 0.0);
+}
+
+TEST(IcpSeedPrior, AFrameThatPairsFewPixelsButAgreesWithTheSeedIsReliable) {
+  Eigen::Matrix<double, 6, 1> s;
+  s.setConstant(2e4);
+  QuadraticSource agreeing(s, gate_target(0.001), 0.3);  // 30 % paired, under the 40 % test
+  auto agreed = run_icp(agreeing, prior_config(), Eigen::Isometry3d::Identity());
+  ASSERT_TRUE(agreed.ok());
+  EXPECT_TRUE(agreed->reliable) << agreed->reason;
+  EXPECT_TRUE(agreed->quality.agreed_with_seed);
+  EXPECT_GT(agreed->quality.seed_chi2, 0.0);
+  EXPECT_LT(agreed->quality.seed_chi2, 22.46);
+  // 6 mm away from a 1 mm prediction: the pairing test stands.
+  Eigen::Matrix<double, 6, 1> far = gate_target(0.001);
+  far(3) = 0.006;
+  QuadraticSource disagreeing(s, far, 0.3);
+  auto refused = run_icp(disagreeing, prior_config(), Eigen::Isometry3d::Identity());
+  ASSERT_TRUE(refused.ok());
+  EXPECT_FALSE(refused->reliable);
+  EXPECT_FALSE(refused->quality.agreed_with_seed);
+  EXPECT_GT(refused->quality.seed_chi2, 22.46);
+  EXPECT_NE(refused->reason.find("inlier fraction"), std::string::npos) << refused->reason;
+  // Under half the pairing threshold, agreement alone does not make a frame reliable.
+  QuadraticSource scarce(s, gate_target(0.001), 0.15);
+  auto too_few = run_icp(scarce, prior_config(), Eigen::Isometry3d::Identity());
+  ASSERT_TRUE(too_few.ok());
+  EXPECT_FALSE(too_few->reliable);
+}
+
 TEST(IcpConfigValidate, RejectsBadSeedGateSettings) {
   IcpConfig config;
   config.seed_sigma_translation = -0.001;
@@ -442,6 +508,12 @@ TEST(IcpConfigValidate, RejectsBadSeedGateSettings) {
   EXPECT_FALSE(config.validate(3).ok());
   config = IcpConfig{};
   config.seed_gate_sigmas = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(config.validate(3).ok());
+  config = IcpConfig{};
+  config.correlated_pixels = 0.5;
+  EXPECT_FALSE(config.validate(3).ok());
+  config = IcpConfig{};
+  config.seed_agreement_chi2 = -1;
   EXPECT_FALSE(config.validate(3).ok());
 }
 

@@ -131,6 +131,22 @@ struct IcpConfig {
   /// prediction's velocity then no longer learns from it, so each frame's disagreement is one
   /// frame's slide, smaller than the catch).
   double seed_gate_hold_sigmas = 2;
+  /// Run the seed gate above (with keep_seed_in_degenerate_directions and seed sigmas).
+  bool seed_gate = true;
+  /// The initial pose as a measurement in Gauss-Newton (an inertial prediction with the seed
+  /// sigmas above; a zero sigma adds nothing): each step solves
+  /// (AtA / (c s^2) + L) x = Atb / (c s^2) + L d, where d moves back to the initial pose,
+  /// L = diag(1 / seed_sigma^2), s^2 = max(r / sum(w) of the depth-only step, depth_noise.a^2)
+  /// the noise the frame shows (m^2) and c the pixels one depth error spreads over. Default off.
+  bool seed_prior = false;
+  /// c at level 0: pixels sharing one depth error (the bilateral window, (2 radius + 1)^2);
+  /// divided by 4 per coarser level, at least 1. Default 49.
+  double correlated_pixels = 49;
+  /// With seed_prior and both seed sigmas: a converged frame whose only faults are the pairing
+  /// tests (inlier and pixel fraction, never below half their thresholds) is reliable when its
+  /// move from the initial pose has chi^2 (6 dof, combined covariance of seed and ICP) below
+  /// this. Default 22.46 (99.9 %); 0: off.
+  double seed_agreement_chi2 = 22.46;
 
   Status validate(int levels) const;
 };
@@ -156,6 +172,12 @@ struct IcpQuality {
   double seed_disagreement = 0;
   /// Directions the seed gate moved back to the initial pose.
   int seed_gated_directions = 0;
+  /// chi^2 (6 dof) of the move from the initial pose under the combined covariance of the seed
+  /// and of ICP (IcpConfig::seed_prior with both sigmas, level 0 reached); 0 otherwise.
+  double seed_chi2 = 0;
+  /// The pairing tests failed, and the frame was judged reliable because it converged, is well
+  /// conditioned and agrees with the initial pose (IcpConfig::seed_agreement_chi2).
+  bool agreed_with_seed = false;
 };
 
 struct IcpResult {

@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <utility>
 #include <vector>
@@ -36,6 +37,77 @@ Eigen::Matrix3d fixed_translation_without(const std::vector<Eigen::Matrix<double
   return fixed;
 }
 
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+
+// The ICP update x that moves T onto T_target (icp_increment(x) * T = T_target).
+Vector6d update_towards(const Eigen::Isometry3d& T_target, const Eigen::Isometry3d& T) {
+  const Eigen::Isometry3d delta = T_target * T.inverse();
+  Vector6d x;
+  x << inertial::log_so3(delta.linear()), delta.translation();
+  return x;
+}
+
+// IcpConfig::seed_prior: the initial pose's information per component of x (rad^-2, m^-2), or
+// nothing unless both sigmas are given (a prior on some directions only would leave the others
+// to the depth alone, degenerate or not).
+std::optional<Vector6d> seed_information(const IcpConfig& config) {
+  if (!config.seed_prior || !(config.seed_sigma_rotation > 0) || !(config.seed_sigma_translation > 0)) return {};
+  Vector6d info;
+  info.head<3>().setConstant(1 / (config.seed_sigma_rotation * config.seed_sigma_rotation));
+  info.tail<3>().setConstant(1 / (config.seed_sigma_translation * config.seed_sigma_translation));
+  return info;
+}
+
+// The depth's information per unit of AtA, 1 / (c s^2) (IcpConfig::seed_prior); 0 when the
+// frame shows no noise to weigh it by.
+double depth_information_scale(const NormalEquations& eq, const IcpStep& depth_only, const IcpConfig& config,
+                               int level) {
+  const double a = config.depth_noise.a;
+  const double s2 = std::max(eq.weight_sum > 0 ? depth_only.residual / eq.weight_sum : 0.0, a * a);
+  const double c = std::max(1.0, config.correlated_pixels / std::pow(4.0, level));
+  return s2 > 0 ? 1 / (c * s2) : 0;
+}
+
+// The depth-only step with the initial pose added as a measurement of information `info`,
+// `to_seed` away: x and the residual at x change; the condition, the singular directions and
+// the fixed translation stay the depth's own.
+void add_seed_prior(IcpStep& step, const NormalEquations& eq, double scale, const Vector6d& info,
+                    const Vector6d& to_seed) {
+  Eigen::Matrix<double, 6, 6> H = eq.AtA * scale;
+  H.diagonal() += info;
+  const Vector6d x = H.ldlt().solve(eq.Atb * scale + info.cwiseProduct(to_seed));
+  if (!x.allFinite()) return;
+  step.x = x;
+  step.residual = std::max(0.0, x.dot(eq.AtA * x) - 2 * x.dot(eq.Atb) + eq.btb);
+}
+
+// chi^2 of the move `moved` from the initial pose under the seed's covariance plus ICP's,
+// (scale AtA)^-1; infinity when AtA is singular.
+double seed_chi2(const NormalEquations& eq, double scale, const Vector6d& info, const Vector6d& moved) {
+  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> depth((eq.AtA * scale).eval());
+  if (depth.info() != Eigen::Success || !(depth.vectorD().minCoeff() > 0)) return std::numeric_limits<double>::infinity();
+  Eigen::Matrix<double, 6, 6> S = depth.solve(Eigen::Matrix<double, 6, 6>::Identity());
+  S.diagonal() += info.cwiseInverse();
+  const double chi2 = moved.dot(S.ldlt().solve(moved));
+  return std::isfinite(chi2) ? chi2 : std::numeric_limits<double>::infinity();
+}
+
+// IcpConfig::seed_agreement_chi2: an unreliable, converged result whose only faults are the
+// pairing tests (each fraction at least half its threshold) becomes reliable when its chi^2
+// from the initial pose is within the limit.
+void accept_if_agreeing(const IcpConfig& config, IcpResult& result) {
+  IcpQuality& q = result.quality;
+  if (result.reliable || !q.converged || !(config.seed_agreement_chi2 > 0) || !(q.seed_chi2 <= config.seed_agreement_chi2))
+    return;
+  IcpReliabilityThresholds pairing = config.reliability;
+  pairing.min_inlier_fraction *= 0.5;
+  pairing.min_pixel_fraction *= 0.5;
+  if (!judge_icp(q, pairing, nullptr)) return;
+  result.reliable = true;
+  q.agreed_with_seed = true;
+  result.reason.clear();
+}
+
 // The end of a partial result's reason.
 std::string partial_reason(int constrained) {
   return "; " + std::to_string(constrained) + " of 6 directions from ICP, the rest from the initial pose";
@@ -49,9 +121,7 @@ void gate_against_seed(const IcpStep& last, const IcpConfig& config, const Eigen
                        IcpResult& result) {
   const Eigen::Matrix<double, 6, 1>& s = last.singular_values;
   const Eigen::Matrix<double, 6, 6>& U = last.directions;
-  const Eigen::Isometry3d delta = result.T_ref_cur * T_init.inverse();
-  Eigen::Matrix<double, 6, 1> xi;
-  xi << inertial::log_so3(delta.linear()), delta.translation();
+  const Vector6d xi = update_towards(result.T_ref_cur, T_init);
   const double sr2 = config.seed_sigma_rotation * config.seed_sigma_rotation;
   const double st2 = config.seed_sigma_translation * config.seed_sigma_translation;
   std::vector<Eigen::Matrix<double, 6, 1>> left_out;
@@ -134,6 +204,10 @@ Status IcpConfig::validate(int levels) const {
     return bad("seed_gate_condition must be at least 1, got " + format(seed_gate_condition));
   if (!(seed_gate_sigmas > 0 && std::isfinite(seed_gate_sigmas)))
     return bad("seed_gate_sigmas must be positive, got " + format(seed_gate_sigmas));
+  if (!(correlated_pixels >= 1 && std::isfinite(correlated_pixels)))
+    return bad("correlated_pixels must be at least 1, got " + format(correlated_pixels));
+  if (!(seed_agreement_chi2 >= 0 && std::isfinite(seed_agreement_chi2)))
+    return bad("seed_agreement_chi2 must be finite and non-negative, got " + format(seed_agreement_chi2));
   if (!(seed_gate_hold_sigmas > 0 && seed_gate_hold_sigmas <= seed_gate_sigmas))
     return bad("seed_gate_hold_sigmas must be in (0, seed_gate_sigmas], got " + format(seed_gate_hold_sigmas));
   return {};
@@ -225,9 +299,12 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
   bool any_step = false;
   int finest_run = levels;
   // The seed gate judges the last step's singular directions: kept only when it may run.
-  const bool seed_gate = config.keep_seed_in_degenerate_directions &&
+  const bool seed_gate = config.seed_gate && config.keep_seed_in_degenerate_directions &&
                          (config.seed_sigma_rotation > 0 || config.seed_sigma_translation > 0);
+  const std::optional<Vector6d> prior = seed_information(config);
   IcpStep last_step;
+  NormalEquations last_eq;  // level 0's last system, for the agreement with the seed
+  double last_scale = 0;
   for (int level = levels - 1; level >= 0; --level) {
     // Keep one iteration for every finer level, so a small budget is spent at full resolution.
     const int budget = config.max_total_iterations - total - level;
@@ -239,8 +316,16 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
     for (int it = 0; it < iterations; ++it) {
       auto eq = source.evaluate(level, T, config.max_distance[l], min_cos);
       if (!eq) return eq.error();
-      const IcpStep step = solve_icp_step(
+      IcpStep step = solve_icp_step(
           *eq, config.keep_seed_in_degenerate_directions ? config.reliability.max_condition : 0.0);
+      if (prior && step.solvable) {
+        const double scale = depth_information_scale(*eq, step, config, level);
+        if (scale > 0) add_seed_prior(step, *eq, scale, *prior, update_towards(T_ref_cur_init, T));
+        if (level == 0) {
+          last_eq = *eq;
+          last_scale = scale;
+        }
+      }
       IcpQuality& q = result.quality;
       q.inliers = eq->inliers;
       q.weight_sum = eq->weight_sum;
@@ -285,6 +370,10 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
   if (result.reliable && finest_run != 0) {
     result.reliable = false;
     result.reason = "level 0 was not reached";
+  }
+  if (prior && finest_run == 0 && last_scale > 0) {
+    result.quality.seed_chi2 = seed_chi2(last_eq, last_scale, *prior, update_towards(T, T_ref_cur_init));
+    if (result.quality.condition <= config.reliability.max_condition) accept_if_agreeing(config, result);
   }
   if (!result.reliable && config.keep_seed_in_degenerate_directions && finest_run == 0 &&
       result.quality.constrained_directions >= config.min_constrained_directions) {
