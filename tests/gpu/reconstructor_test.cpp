@@ -157,11 +157,11 @@ TEST_F(ReconstructorTest, TracksTheRoomWithTheImuInTwoIterationsPerFrame) {
   EXPECT_EQ(rec.validation_error_count(), 0u);
 }
 
-TEST_F(ReconstructorTest, WithoutTheFinestLevelRuleTheImuSeededBudgetStartsOnThePyramid) {
-  // imu_seed_finest_level_only off: the 2-step budget keeps one step for full resolution and
-  // spends the other at the next coarser level.
+TEST_F(ReconstructorTest, WithoutTheSeedsReachTheImuSeededBudgetStartsOnThePyramid) {
+  // imu_seed_reach_pixels 0: the 2-step budget keeps one step for full resolution and spends
+  // the other at the next coarser level.
   ReconstructorConfig c = config(true, 2);
-  c.imu_seed_finest_level_only = false;
+  c.imu_seed_reach_pixels = 0;
   Reconstructor rec = make(c);
   for (std::size_t i = 0; i < 8; ++i) {
     const Frame& f = frames_[i];

@@ -482,6 +482,14 @@ TEST(IcpSeedPrior, AFrameThatPairsFewPixelsButAgreesWithTheSeedIsReliable) {
   EXPECT_TRUE(agreed->quality.agreed_with_seed);
   EXPECT_GT(agreed->quality.seed_chi2, 0.0);
   EXPECT_LT(agreed->quality.seed_chi2, 22.46);
+  // The test needs the seed's sigmas, not the prior in the solve.
+  IcpConfig without_prior = prior_config();
+  without_prior.seed_prior = false;
+  QuadraticSource again(s, gate_target(0.001), 0.3);
+  auto agreed_alone = run_icp(again, without_prior, Eigen::Isometry3d::Identity());
+  ASSERT_TRUE(agreed_alone.ok());
+  EXPECT_TRUE(agreed_alone->quality.agreed_with_seed) << agreed_alone->reason;
+  EXPECT_NEAR(agreed_alone->T_ref_cur.translation().x(), 0.001, 1e-9);
   // 6 mm away from a 1 mm prediction: the pairing test stands.
   Eigen::Matrix<double, 6, 1> far = gate_target(0.001);
   far(3) = 0.006;

@@ -58,11 +58,17 @@ struct ReconstructorConfig {
   TrackingConfig tracking;
   /// false: the baseline without inertial data, dIMU = identity (samples passed are ignored).
   bool use_imu = true;
-  /// While tracking on the IMU's prediction (not lost or recovering), ICP spends its per-frame
-  /// budget at full resolution only, the coarser pyramid levels skipped: the seed is millimetres
-  /// off, within the finest level's reach. Lost and recovering frames, and the baseline without
-  /// the IMU, keep the pyramid (bench/README.md: room and fast scans, 2 iterations per frame).
-  bool imu_seed_finest_level_only = true;
+  /// Pixels: while tracking on the IMU's prediction of rotation and translation, ICP starts at
+  /// the finest pyramid level where 3 sigma of the seed's image motion (f times the rotation
+  /// sigma plus the translation sigma over the median depth) is within this many of the level's
+  /// pixels. Lost and recovering frames and the baseline without the IMU keep the pyramid;
+  /// 0: always the pyramid. Default 4.
+  double imu_seed_reach_pixels = 4;
+  /// While tracking on the IMU's prediction of rotation and translation, the prediction enters
+  /// ICP's Gauss-Newton steps as a measurement with its sigmas (IcpConfig::seed_prior); the
+  /// agreement test (IcpConfig::seed_agreement_chi2) runs either way. Default off: the prior is
+  /// on the motion from the previous pose, whose own error it then holds (bench/README.md).
+  bool imu_prior = false;
   InertialConfig inertial;
   /// While tracking with an IMU prediction of both rotation and translation, solve ICP
   /// degeneracy-aware (IcpConfig::keep_seed_in_degenerate_directions): a frame whose only fault
@@ -100,9 +106,9 @@ struct ReconstructorConfig {
   /// coarsest ICP level's max_distance up to `relocalization_max_radius`: 0.17 m/s^2 is gravity
   /// leaking through a 1 degree tilt error, what the gyro noise of phone-grade IMUs (0.003
   /// rad/s/sqrt(Hz), as in the shared sequences) and its bias error accumulate in about 4 s.
-  /// Once it reaches the cap, dead reckoning may lie beyond any affordable search (metres after
-  /// 8 s), so the search also covers `relocalization_max_radius` around where the scan was lost
-  /// (the last fully constrained frame), and the best distinct fits of both are tried.
+  /// Dead reckoning may lie beyond the search (metres after 8 s), so the same radius is also
+  /// searched around where the scan was lost (the last fully constrained frame), and the best
+  /// distinct fits of both are tried.
   bool relocalize_with_imu = true;
   int relocalization_interval = 5;
   double relocalization_cell = 0.05;

@@ -47,11 +47,13 @@ Vector6d update_towards(const Eigen::Isometry3d& T_target, const Eigen::Isometry
   return x;
 }
 
-// IcpConfig::seed_prior: the initial pose's information per component of x (rad^-2, m^-2), or
-// nothing unless both sigmas are given (a prior on some directions only would leave the others
+// IcpConfig::seed_prior and seed_agreement_chi2: the initial pose's information per component
+// of x (rad^-2, m^-2), or nothing unless both sigmas are given (a prior on some directions only would leave the others
 // to the depth alone, degenerate or not).
 std::optional<Vector6d> seed_information(const IcpConfig& config) {
-  if (!config.seed_prior || !(config.seed_sigma_rotation > 0) || !(config.seed_sigma_translation > 0)) return {};
+  if (!(config.seed_prior || config.seed_agreement_chi2 > 0) || !(config.seed_sigma_rotation > 0) ||
+      !(config.seed_sigma_translation > 0))
+    return {};
   Vector6d info;
   info.head<3>().setConstant(1 / (config.seed_sigma_rotation * config.seed_sigma_rotation));
   info.tail<3>().setConstant(1 / (config.seed_sigma_translation * config.seed_sigma_translation));
@@ -320,7 +322,7 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
           *eq, config.keep_seed_in_degenerate_directions ? config.reliability.max_condition : 0.0);
       if (prior && step.solvable) {
         const double scale = depth_information_scale(*eq, step, config, level);
-        if (scale > 0) add_seed_prior(step, *eq, scale, *prior, update_towards(T_ref_cur_init, T));
+        if (scale > 0 && config.seed_prior) add_seed_prior(step, *eq, scale, *prior, update_towards(T_ref_cur_init, T));
         if (level == 0) {
           last_eq = *eq;
           last_scale = scale;

@@ -46,7 +46,8 @@ Status ReconstructorConfig::validate() const {
       {"relocalization_drift_acceleration", relocalization_drift_acceleration},
       {"partial_move_sigma", partial_move_sigma},
       {"retracked_frame_sigma", retracked_frame_sigma},
-      {"recovery_agreement_distance", recovery_agreement_distance}};
+      {"recovery_agreement_distance", recovery_agreement_distance},
+      {"imu_seed_reach_pixels", imu_seed_reach_pixels}};
   for (const auto& [name, value] : non_negative)
     if (!(value >= 0) || !std::isfinite(value))
       return bad(std::string(name) + " must be finite and >= 0, got " + std::to_string(value));

@@ -129,6 +129,27 @@ IcpReliabilityThresholds Reconstructor::Impl::reliability(const DepthImage& dept
   return t;
 }
 
+// The coarsest pyramid level ICP needs from an inertial seed (ReconstructorConfig::
+// imu_seed_reach_pixels): the finest level at which 3 sigma of the seed's image motion, at
+// the frame's median depth, is within the reach.
+int Reconstructor::Impl::seed_start_level(const MotionPrediction& prediction, const DepthImage& depth) const {
+  const int coarsest = config.preprocess.levels - 1;
+  const double reach = config.imu_seed_reach_pixels;
+  std::vector<double> z;
+  const double scale = 1.0 / depth.depth_scale;
+  for (std::size_t i = 0; i < depth.data.size(); i += 7) {  // a sample is enough for a median
+    const double d = depth.data[i] * scale;
+    if (valid_depth(depth.data[i], d)) z.push_back(d);
+  }
+  if (z.empty()) return coarsest;
+  std::nth_element(z.begin(), z.begin() + static_cast<std::ptrdiff_t>(z.size() / 2), z.end());
+  const double f = std::max(config.intrinsics.fx, config.intrinsics.fy);
+  const double motion = 3 * f * (prediction.rotation_sigma + prediction.translation_sigma / z[z.size() / 2]);
+  int level = 0;
+  while (level < coarsest && motion > reach * std::ldexp(1.0, level)) ++level;
+  return level;
+}
+
 // ICP of the current frame against the reference from a seed; `settling`: the budget and
 // convergence thresholds of a frame that must first settle onto the model (lost or
 // recovering).
@@ -141,19 +162,32 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthImage& depth,
   icp.keep_seed_in_degenerate_directions =
       config.partial_icp_with_imu && prediction.rotation_from_imu && prediction.translation_predicted;
   icp.reliability = reliability(depth);
-  // The seed gate, while tracking on an inertial prediction: a lost or recovering frame's
-  // seed carries the whole drift of dead reckoning, not one frame's prediction error, and a
-  // velocity from one or two tracked pairs carries their error into the seed.
-  if (config.seed_gate_with_imu && icp.keep_seed_in_degenerate_directions && !settling &&
-      prediction.translation_inertial) {
+  // The prediction measures the motion only while tracking: a lost or recovering frame's seed
+  // carries the whole drift of dead reckoning, not one frame's prediction error.
+  const bool on_prediction = prediction.rotation_from_imu && prediction.translation_predicted && !settling;
+  // The seed gate also needs a velocity settled by the accelerometer: one from one or two
+  // tracked pairs carries their error into the seed.
+  icp.seed_gate = config.seed_gate_with_imu && icp.keep_seed_in_degenerate_directions && on_prediction &&
+                  prediction.translation_inertial;
+  icp.seed_prior = config.imu_prior && on_prediction;
+  if (icp.seed_gate || on_prediction) {
     icp.seed_sigma_rotation = prediction.rotation_sigma;
     icp.seed_sigma_translation = prediction.translation_sigma;
+    // A translation held from the tracked velocity is a guess, not a measurement: the prior
+    // then says only that the device moved no faster than a hand-held one can.
+    if (!prediction.translation_inertial && !icp.seed_gate)
+      icp.seed_sigma_translation = std::max(prediction.translation_sigma, config.inertial.max_speed * frame_interval);
+    const int window = 2 * config.preprocess.bilateral_radius + 1;
+    icp.correlated_pixels = std::max(1, window * window);
     if (seed_gate_holding) icp.seed_gate_sigmas = icp.seed_gate_hold_sigmas;
   }
-  // An inertial seed while tracking is millimetres off, within the finest level's reach: the
-  // few iterations allowed are all spent at full resolution.
-  if (config.imu_seed_finest_level_only && prediction.rotation_from_imu && !settling)
-    std::fill(icp.iterations_per_level.begin() + 1, icp.iterations_per_level.end(), 0);
+  // With the gyro's rotation but no predicted translation (the first tracked frames), the seed
+  // is still within the finest level's reach while tracking (bench/README.md: room and fast
+  // scans, 2 iterations per frame).
+  if (prediction.rotation_from_imu && !settling && config.imu_seed_reach_pixels > 0) {
+    const int start = on_prediction ? seed_start_level(prediction, depth) : 0;
+    std::fill(icp.iterations_per_level.begin() + start + 1, icp.iterations_per_level.end(), 0);
+  }
   if (settling) {
     icp.max_total_iterations = std::max(icp.max_total_iterations, config.tracking.recovery_icp_iterations);
     icp.converged_rotation = std::max(icp.converged_rotation, config.recovery_converged_rotation);
@@ -172,6 +206,7 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthImage& depth,
 Result<TrackingDecision> Reconstructor::Impl::track_frame(double timestamp, const DepthImage& depth,
                                                           FrameResult& r) {
   const StampedPose& previous = trajectory.back();
+  frame_interval = timestamp - previous.timestamp;
   if (navigator) r.imu = navigator->predict(previous.timestamp, timestamp);
   const Eigen::Isometry3d T_world_seed = previous.T_world_camera * r.imu.T_a_b;
   auto icp = align(depth, T_world_seed, r.imu, machine.recovering_or_lost(), r.timings);
@@ -207,7 +242,9 @@ Result<TrackingDecision> Reconstructor::Impl::track_frame(double timestamp, cons
   if (r.recovery_restarted) machine.restart_recovery();
   const TrackingDecision decision =
       machine.step(icp->reliable, icp->quality.converged, icp->partial, partial_may_fuse);
-  if (decision.status == TrackingStatus::kTracking && decision.source == PoseSource::kIcp)
+  // A frame accepted for its agreement with the IMU paired less than the reference asks for.
+  if (decision.status == TrackingStatus::kTracking && decision.source == PoseSource::kIcp &&
+      !icp->quality.agreed_with_seed)
     pairing.add(icp->quality.inlier_fraction, icp->quality.pixel_fraction);
   seed_gate_holding =
       decision.status == TrackingStatus::kTracking && icp->quality.seed_gated_directions > 0;

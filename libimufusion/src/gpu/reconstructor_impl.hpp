@@ -112,6 +112,7 @@ struct Reconstructor::Impl {
   // The last tracked frame's seed gate moved a direction back to the prediction: the next
   // frame is gated at seed_gate_hold_sigmas.
   bool seed_gate_holding = false;
+  double frame_interval = 0;  // s, from the previous frame to the one being aligned
 
   // The per-frame pipeline (reconstructor.cpp).
   Status check_frame(double timestamp, const DepthImage& depth, const ColorImage* rgb) const;
@@ -126,6 +127,7 @@ struct Reconstructor::Impl {
   std::size_t valid_depth_pixels(const DepthImage& depth) const;
   double mean_noise_variance(const DepthImage& depth) const;
   IcpReliabilityThresholds reliability(const DepthImage& depth) const;
+  int seed_start_level(const MotionPrediction& prediction, const DepthImage& depth) const;
   Result<IcpResult> align(const DepthImage& depth, const Eigen::Isometry3d& T_world_seed,
                           const MotionPrediction& prediction, bool settling, FrameTimings& timings);
   Result<TrackingDecision> track_frame(double timestamp, const DepthImage& depth, FrameResult& r);

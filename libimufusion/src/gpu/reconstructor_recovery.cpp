@@ -88,15 +88,14 @@ Result<std::optional<Reconstructor::Impl::Relocalization>> Reconstructor::Impl::
   }
   std::vector<TranslationCandidate> candidates = field.search(
       points, T_world_estimate.linear(), T_world_estimate.translation(), radius, config.relocalization_candidates);
-  if (radius >= config.relocalization_max_radius) {
-    // Dead reckoning may have drifted beyond the search by now, while a hand-held camera that
-    // turns back to the scanned model is seldom far from where the scan was lost: search
-    // there too.
-    const Eigen::Vector3d lost_at = trajectory[last_constrained_index].T_world_camera.translation();
-    candidates = merge_candidates(candidates,
-                                  field.search(points, T_world_estimate.linear(), lost_at,
-                                               config.relocalization_max_radius, config.relocalization_candidates),
-                                  config.relocalization_candidates, 2 * config.relocalization_cell);
+  // Dead reckoning may have drifted beyond the search, while a hand-held camera that turns back
+  // to the scanned model is seldom far from where the scan was lost: search there too.
+  const Eigen::Vector3d lost_at = trajectory[last_constrained_index].T_world_camera.translation();
+  if ((lost_at - T_world_estimate.translation()).norm() > config.relocalization_cell) {
+    candidates = merge_candidates(
+        candidates,
+        field.search(points, T_world_estimate.linear(), lost_at, radius, config.relocalization_candidates),
+        config.relocalization_candidates, 2 * config.relocalization_cell);
   }
   std::optional<Relocalization> best;
   IcpReliabilityThresholds plausible = reliability(depth);

@@ -31,7 +31,7 @@ double median_of(std::vector<double> values) {
 
 std::string frames_csv_header() {
   return "timestamp,status,pose_source,icp_iterations,residual,inliers,weight_sum,condition,fused,ms,"
-         "icp_reliable,icp_reason,icp_directions,imu_disagreement,relocalized,recovery_restarted,imu_rotation,imu_coverage,gyro_bias_x,gyro_bias_y,gyro_bias_z,"
+         "icp_reliable,icp_reason,icp_directions,imu_disagreement,imu_chi2,imu_agreed,inlier_fraction,pixel_fraction,relocalized,recovery_restarted,imu_rotation,imu_coverage,gyro_bias_x,gyro_bias_y,gyro_bias_z,"
          "R_camera_imu_estimated,R_camera_imu_sigma_deg,blocks,tx,ty,tz,qx,qy,qz,qw";
 }
 
@@ -48,8 +48,11 @@ std::string frames_csv_row(const FrameResult& f, std::uint32_t allocated_blocks)
   row += std::string(",") + (f.fused ? "1" : "0") + "," + format("%.2f", f.timings.total_ms) + ",";
   row += f.icp_ran ? std::string(f.icp.reliable ? "1" : "0") + "," + csv_field(f.icp.reason) + "," +
                          std::to_string(f.icp.quality.constrained_directions) + "," +
-                         format("%.3g", f.icp.quality.seed_disagreement)
-                   : std::string(",,,");
+                         format("%.3g", f.icp.quality.seed_disagreement) + "," +
+                         format("%.3g", f.icp.quality.seed_chi2) + "," + (f.icp.quality.agreed_with_seed ? "1" : "0") +
+                         "," + format("%.3f", f.icp.quality.inlier_fraction) + "," +
+                         format("%.3f", f.icp.quality.pixel_fraction)
+                   : std::string(",,,,,,,");
   row += std::string(",") + (f.relocalized ? "1" : "0") + "," + (f.recovery_restarted ? "1" : "0");
   row += std::string(",") + (f.imu.rotation_from_imu ? "1" : "0") + "," + format("%.3f", f.imu.covered_fraction);
   for (int i = 0; i < 3; ++i) row += "," + format("%.6g", f.inertial.gyro_bias[i]);
