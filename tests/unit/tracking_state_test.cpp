@@ -1,3 +1,4 @@
+#include <limits>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -212,4 +213,26 @@ TEST(PairingReference, LowersThePairingTestsToWhatAlignedFramesPair) {
   EXPECT_EQ(reference.size(), 3u);
   reference.reset();
   EXPECT_EQ(reference.size(), 0u);
+}
+
+TEST(PredictionCalibration, ScalesThePredictionsSigmasByHowFarItIsOff) {
+  TrackingConfig config;
+  config.prediction_window = 3;
+  PredictionCalibration calibration(config);
+  EXPECT_EQ(calibration.scale(), 1.0);  // nothing seen yet
+  for (double chi2 : {2.0, 4.0, 3.0}) calibration.add(chi2);
+  EXPECT_EQ(calibration.scale(), 1.0);  // within its sigmas: never below 1
+  // A prediction 4 times further off than its sigmas say: chi^2 16 times its median.
+  for (int i = 0; i < 3; ++i) calibration.add(16 * 5.348);
+  EXPECT_NEAR(calibration.scale(), 4.0, 1e-9);
+  // Judged at the scaled sigmas, a frame as far off has chi^2 at the median: the scale holds.
+  for (int i = 0; i < 3; ++i) calibration.add(5.348);
+  EXPECT_NEAR(calibration.scale(), 4.0, 1e-9);
+  calibration.add(std::numeric_limits<double>::quiet_NaN());  // ignored
+  EXPECT_EQ(calibration.size(), 3u);
+  calibration.reset();
+  EXPECT_EQ(calibration.scale(), 1.0);
+  PredictionCalibration off(TrackingConfig{.prediction_window = 0});
+  off.add(100);
+  EXPECT_EQ(off.size(), 0u);
 }

@@ -142,10 +142,10 @@ struct IcpConfig {
   /// c at level 0: pixels sharing one depth error (the bilateral window, (2 radius + 1)^2);
   /// divided by 4 per coarser level, at least 1. Default 49.
   double correlated_pixels = 49;
-  /// With both seed sigmas (seed_prior or not): a converged frame whose only faults are the pairing
-  /// tests (inlier and pixel fraction, never below half their thresholds) is reliable when its
-  /// move from the initial pose has chi^2 (6 dof, combined covariance of seed and ICP) below
-  /// this. Default 22.46 (99.9 %); 0: off.
+  /// With both seed sigmas (seed_prior or not): a converged, well-conditioned frame whose only
+  /// faults are the pairing and residual tests (fractions at least half their thresholds,
+  /// r / sum(w) at most twice its) is reliable when its move from the initial pose has chi^2
+  /// (6 dof, combined covariance of seed and ICP) below this. Default 22.46 (99.9 %); 0: off.
   double seed_agreement_chi2 = 22.46;
 
   Status validate(int levels) const;
@@ -175,8 +175,8 @@ struct IcpQuality {
   /// chi^2 (6 dof) of the move from the initial pose under the combined covariance of the seed
   /// and of ICP (both seed sigmas given, level 0 reached); 0 otherwise.
   double seed_chi2 = 0;
-  /// The pairing tests failed, and the frame was judged reliable because it converged, is well
-  /// conditioned and agrees with the initial pose (IcpConfig::seed_agreement_chi2).
+  /// The pairing or residual tests failed, and the frame was judged reliable because it
+  /// converged, is well conditioned and agrees with the initial pose (seed_agreement_chi2).
   bool agreed_with_seed = false;
 };
 

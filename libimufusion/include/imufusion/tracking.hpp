@@ -62,6 +62,10 @@ struct TrackingConfig {
   int pairing_window = 15;
   double pairing_ratio = 0.7;
   double pairing_floor = 0.15;
+  /// The IMU prediction's sigmas are scaled by what this scan shows: sqrt of the median chi^2
+  /// (6 dof) of ICP's move from the prediction over the last `prediction_window` frames ICP
+  /// tracked on its own, over chi^2's median (5.35), never below 1 (bench/README.md). 0: off.
+  int prediction_window = 30;
 };
 
 /// What aligned frames of this scan pair against the model (the medians of IcpQuality's
@@ -81,6 +85,25 @@ class PairingReference {
  private:
   TrackingConfig config_;
   std::deque<double> inlier_, pixel_;
+};
+
+/// How far the IMU's prediction is off on this scan relative to its own sigmas
+/// (TrackingConfig::prediction_window): the scale its sigmas take before ICP's agreement test.
+class PredictionCalibration {
+ public:
+  explicit PredictionCalibration(const TrackingConfig& config = {}) : config_(config) {}
+  /// A frame ICP tracked on its own, whose move from the prediction had `chi2` (6 dof) under
+  /// the prediction's sigmas times scale(): the seed's covariance dominating ICP's, chi2 at
+  /// unit scale is chi2 * scale()^2.
+  void add(double chi2);
+  /// The factor on the prediction's sigmas, at least 1 (1 before any frame was added).
+  double scale() const;
+  void reset() { chi2_.clear(); }
+  std::size_t size() const { return chi2_.size(); }
+
+ private:
+  TrackingConfig config_;
+  std::deque<double> chi2_;  // at unit scale
 };
 
 struct TrackingDecision {

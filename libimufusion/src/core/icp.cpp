@@ -95,8 +95,8 @@ double seed_chi2(const NormalEquations& eq, double scale, const Vector6d& info, 
 }
 
 // IcpConfig::seed_agreement_chi2: an unreliable, converged result whose only faults are the
-// pairing tests (each fraction at least half its threshold) becomes reliable when its chi^2
-// from the initial pose is within the limit.
+// pairing and residual tests (each fraction at least half its threshold, r / sum(w) at most
+// twice its) becomes reliable when its chi^2 from the initial pose is within the limit.
 void accept_if_agreeing(const IcpConfig& config, IcpResult& result) {
   IcpQuality& q = result.quality;
   if (result.reliable || !q.converged || !(config.seed_agreement_chi2 > 0) || !(q.seed_chi2 <= config.seed_agreement_chi2))
@@ -104,6 +104,7 @@ void accept_if_agreeing(const IcpConfig& config, IcpResult& result) {
   IcpReliabilityThresholds pairing = config.reliability;
   pairing.min_inlier_fraction *= 0.5;
   pairing.min_pixel_fraction *= 0.5;
+  pairing.max_residual_per_weight *= 2;
   if (!judge_icp(q, pairing, nullptr)) return;
   result.reliable = true;
   q.agreed_with_seed = true;

@@ -19,6 +19,8 @@ Status ReconstructorConfig::validate() const {
   IMUFUSION_RETURN_IF_ERROR(icp.validate(preprocess.levels));
   if (tracking.recovery_frames < 1)
     return bad("tracking.recovery_frames must be at least 1, got " + std::to_string(tracking.recovery_frames));
+  if (tracking.prediction_window < 0)
+    return bad("tracking.prediction_window must be non-negative, got " + std::to_string(tracking.prediction_window));
   if (tracking.pairing_window < 0)
     return bad("tracking.pairing_window must be non-negative, got " + std::to_string(tracking.pairing_window));
   if (!(tracking.pairing_ratio >= 0 && tracking.pairing_ratio <= 1))

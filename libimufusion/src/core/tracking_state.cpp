@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <cmath>
 #include <string_view>
 
 #include "imufusion/tracking.hpp"
@@ -58,6 +59,19 @@ void PairingReference::apply(double& min_inlier_fraction, double& min_pixel_frac
 void PairingReference::reset() {
   inlier_.clear();
   pixel_.clear();
+}
+
+void PredictionCalibration::add(double chi2) {
+  if (config_.prediction_window <= 0 || !(chi2 >= 0) || !std::isfinite(chi2)) return;
+  const double unit = chi2 * scale() * scale();
+  chi2_.push_back(unit);
+  while (chi2_.size() > static_cast<std::size_t>(config_.prediction_window)) chi2_.pop_front();
+}
+
+double PredictionCalibration::scale() const {
+  constexpr double kMedianChi2Of6 = 5.348;  // the median of chi^2 with 6 degrees of freedom
+  if (chi2_.empty()) return 1;
+  return std::sqrt(std::max(1.0, median(chi2_) / kMedianChi2Of6));
 }
 
 std::optional<TrackingStatus> parse_tracking_status(std::string_view name) {

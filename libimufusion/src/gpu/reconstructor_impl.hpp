@@ -63,6 +63,7 @@ struct Reconstructor::Impl {
   std::optional<InertialNavigator> navigator;
   TrackingStateMachine machine;
   PairingReference pairing;  // what this scan's aligned frames pair
+  PredictionCalibration prediction_calibration;  // how far the IMU's prediction is off on this scan
 
   Trajectory trajectory;
   double last_constrained_time = 0;  // s: the last frame whose pose ICP fixed in all directions
