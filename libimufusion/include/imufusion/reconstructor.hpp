@@ -62,8 +62,9 @@ struct ReconstructorConfig {
   /// the finest pyramid level where 3 sigma of the seed's image motion (f times the rotation
   /// sigma plus the translation sigma over the median depth) is within this many of the level's
   /// pixels. Lost and recovering frames and the baseline without the IMU keep the pyramid;
-  /// 0: always the pyramid. Default 4.
-  double imu_seed_reach_pixels = 4;
+  /// 0: always the pyramid. Default 16 (bench/README.md: 4 cost TUM fr1_xyz at frame step 4
+  /// 0.9 mm of ATE under the 2-iteration cap).
+  double imu_seed_reach_pixels = 16;
   /// While tracking on the IMU's prediction of rotation and translation, the prediction enters
   /// ICP's Gauss-Newton steps as a measurement with its sigmas (IcpConfig::seed_prior); the
   /// agreement test (IcpConfig::seed_agreement_chi2) runs either way. Default off: the prior is
