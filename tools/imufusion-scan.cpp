@@ -280,7 +280,15 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
     const InertialStatus& in = run.frames.back().inertial;
     auto& imu = j["imu_estimates"];
     imu["gyro_bias"] = {in.gyro_bias.x(), in.gyro_bias.y(), in.gyro_bias.z()};
+    imu["gyro_bias_sigma"] = {in.gyro_bias_sigma.x(), in.gyro_bias_sigma.y(), in.gyro_bias_sigma.z()};
     imu["gyro_bias_updates"] = in.bias_updates;
+    imu["gyro_bias_rejected"] = in.bias_rejected;
+    if (in.gravity_ready) {
+      imu["gravity_world"] = {in.gravity_world.x(), in.gravity_world.y(), in.gravity_world.z()};
+      imu["gravity_sigma"] = {in.gravity_sigma.x(), in.gravity_sigma.y(), in.gravity_sigma.z()};
+      imu["accel_bias"] = {in.accel_bias.x(), in.accel_bias.y(), in.accel_bias.z()};
+      imu["accel_bias_sigma"] = {in.accel_bias_sigma.x(), in.accel_bias_sigma.y(), in.accel_bias_sigma.z()};
+    }
     imu["R_camera_imu_xyzw"] = {in.R_camera_imu.x(), in.R_camera_imu.y(), in.R_camera_imu.z(), in.R_camera_imu.w()};
     imu["R_camera_imu_estimated"] = in.R_camera_imu_estimated;
     imu["R_camera_imu_sigma_deg"] = in.R_camera_imu_sigma_deg;

@@ -97,6 +97,15 @@ TEST_F(ScanTool, ScansARoomWithTheImuAndWritesEveryOutput) {
   EXPECT_LE(summary["median_icp_iterations"].get<double>(), 2.0);
   EXPECT_GT(summary["fps"].get<double>(), 0.0);
   EXPECT_FALSE(summary["device"].get<std::string>().empty());
+  // Every inertial estimate comes with its sigma: the gyro bias, learned from the tracked
+  // frames, is known better than its 0.03 rad/s prior.
+  const auto& imu = summary["imu_estimates"];
+  ASSERT_EQ(imu["gyro_bias_sigma"].size(), 3u) << summary.dump();
+  for (const auto& sigma : imu["gyro_bias_sigma"]) {
+    EXPECT_GT(sigma.get<double>(), 0.0);
+    EXPECT_LT(sigma.get<double>(), 0.03);
+  }
+  EXPECT_GT(imu["gyro_bias_updates"].get<int>(), 0);
   ASSERT_TRUE(summary.contains("ate")) << summary.dump();
   EXPECT_LT(summary["ate"]["rmse"].get<double>(), 0.015);
   auto mesh = read_mesh(out / "mesh.glb");
