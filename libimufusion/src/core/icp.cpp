@@ -39,6 +39,11 @@ Eigen::Matrix3d fixed_translation_without(const std::vector<Eigen::Matrix<double
 
 using Vector6d = Eigen::Matrix<double, 6, 1>;
 
+// r = sum w (a.x - b)^2 = x^T AtA x - 2 x^T Atb + btb, exact for the reduced sums.
+double residual_at(const NormalEquations& eq, const Vector6d& x) {
+  return std::max(0.0, x.dot(eq.AtA * x) - 2 * x.dot(eq.Atb) + eq.btb);
+}
+
 // The ICP update x that moves T onto T_target (icp_increment(x) * T = T_target).
 Vector6d update_towards(const Eigen::Isometry3d& T_target, const Eigen::Isometry3d& T) {
   const Eigen::Isometry3d delta = T_target * T.inverse();
@@ -48,8 +53,8 @@ Vector6d update_towards(const Eigen::Isometry3d& T_target, const Eigen::Isometry
 }
 
 // IcpConfig::seed_prior and seed_agreement_chi2: the initial pose's information per component
-// of x (rad^-2, m^-2), or nothing unless both sigmas are given (a prior on some directions only would leave the others
-// to the depth alone, degenerate or not).
+// of x (rad^-2, m^-2), or nothing unless both sigmas are given (a prior on some directions only
+// would leave the others to the depth alone, degenerate or not).
 std::optional<Vector6d> seed_information(const IcpConfig& config) {
   if (!(config.seed_prior || config.seed_agreement_chi2 > 0) || !(config.seed_sigma_rotation > 0) ||
       !(config.seed_sigma_translation > 0))
@@ -80,7 +85,7 @@ void add_seed_prior(IcpStep& step, const NormalEquations& eq, double scale, cons
   const Vector6d x = H.ldlt().solve(eq.Atb * scale + info.cwiseProduct(to_seed));
   if (!x.allFinite()) return;
   step.x = x;
-  step.residual = std::max(0.0, x.dot(eq.AtA * x) - 2 * x.dot(eq.Atb) + eq.btb);
+  step.residual = residual_at(eq, x);
 }
 
 // chi^2 of the move `moved` from the initial pose under the seed's covariance plus ICP's,
@@ -251,8 +256,7 @@ IcpStep solve_icp_step(const NormalEquations& eq, double max_condition) {
     step.x.setZero();
     return step;
   }
-  // r = sum w (a.x - b)^2 = x^T AtA x - 2 x^T Atb + btb, exact for the reduced sums.
-  step.residual = std::max(0.0, step.x.dot(eq.AtA * step.x) - 2 * step.x.dot(eq.Atb) + eq.btb);
+  step.residual = residual_at(eq, step.x);
   step.solvable = true;
   return step;
 }

@@ -170,7 +170,7 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthImage& depth,
   icp.seed_gate = config.seed_gate_with_imu && icp.keep_seed_in_degenerate_directions && on_prediction &&
                   prediction.translation_inertial;
   icp.seed_prior = config.imu_prior && on_prediction;
-  if (icp.seed_gate || on_prediction) {
+  if (on_prediction) {  // the gate runs only on a prediction too
     icp.seed_sigma_rotation = prediction.rotation_sigma;
     icp.seed_sigma_translation = prediction.translation_sigma;
     // A translation held from the tracked velocity is a guess, not a measurement: the prior
@@ -193,25 +193,25 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthImage& depth,
     const int start = on_prediction ? seed_start_level(prediction, depth) : 0;
     std::fill(icp.iterations_per_level.begin() + start + 1, icp.iterations_per_level.end(), 0);
   }
-  if (settling) {
-    icp.max_total_iterations = std::max(icp.max_total_iterations, config.tracking.recovery_icp_iterations);
-    icp.converged_rotation = std::max(icp.converged_rotation, config.recovery_converged_rotation);
-    icp.converged_translation = std::max(icp.converged_translation, config.recovery_converged_translation);
-  }
+  // The budget and convergence thresholds of a frame that must settle onto the model.
+  const auto settling_budget = [&](IcpConfig c) {
+    c.max_total_iterations = std::max(c.max_total_iterations, config.tracking.recovery_icp_iterations);
+    c.converged_rotation = std::max(c.converged_rotation, config.recovery_converged_rotation);
+    c.converged_translation = std::max(c.converged_translation, config.recovery_converged_translation);
+    return c;
+  };
+  if (settling) icp = settling_budget(icp);
   gpu::GpuNormalEquationSource source(icp_kernels, icp_seq, current, reference, &timings.kernels);
   const Eigen::Isometry3d T_ref_seed = T_world_reference.inverse() * T_world_seed;
   auto result = run_icp(source, icp, T_ref_seed);
   // A tracked frame that the per-frame budget left unconverged and unreliable is given the
-  // recovery budget and convergence thresholds from the same seed before it counts as lost: the
-  // tests judge an alignment, not an unfinished one.
-  const int budget = std::max(icp.max_total_iterations, config.tracking.recovery_icp_iterations);
+  // settling budget from the same seed before it counts as lost: the tests judge an alignment,
+  // not an unfinished one.
+  const IcpConfig retry = settling_budget(icp);
   if (result && !settling && !result->reliable && !result->partial && !result->quality.converged &&
-      budget > icp.max_total_iterations) {
+      retry.max_total_iterations > icp.max_total_iterations) {
     const int spent = result->quality.iterations;
-    icp.max_total_iterations = budget;
-    icp.converged_rotation = std::max(icp.converged_rotation, config.recovery_converged_rotation);
-    icp.converged_translation = std::max(icp.converged_translation, config.recovery_converged_translation);
-    result = run_icp(source, icp, T_ref_seed);
+    result = run_icp(source, retry, T_ref_seed);
     if (result) result->quality.iterations += spent;
   }
   timings.icp_ms += ms_since(t0);
@@ -265,7 +265,8 @@ Result<TrackingDecision> Reconstructor::Impl::track_frame(double timestamp, cons
   if (decision.status == TrackingStatus::kTracking && decision.source == PoseSource::kIcp &&
       !icp->quality.agreed_with_seed) {
     pairing.add(icp->quality.inlier_fraction, icp->quality.pixel_fraction);
-    if (icp->quality.seed_chi2 > 0 && !icp->quality.seed_gated_directions) prediction_calibration.add(icp->quality.seed_chi2);
+    if (icp->quality.seed_chi2 > 0 && icp->quality.seed_gated_directions == 0)
+      prediction_calibration.add(icp->quality.seed_chi2);
   }
   seed_gate_holding =
       decision.status == TrackingStatus::kTracking && icp->quality.seed_gated_directions > 0;
