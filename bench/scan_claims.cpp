@@ -16,7 +16,7 @@
 // Printed per scan and setting: ATE RMSE (mm), lost and recovering frames, recoveries, broken
 // recoveries (a recovering frame followed by a lost one) and frames to recover, lost frames
 // placed backward from their recovery, recovering frames that restarted the recovery's count
-// (ReconstructorConfig::recovery_agreement_distance), median ICP iterations over all frames and
+// (ReconstructorConfig::recovery.agreement_distance), median ICP iterations over all frames and
 // over tracking frames, mean ICP iterations, whether every frame after the wall stretch tracks,
 // and the frame rate.
 //
@@ -71,13 +71,13 @@ struct Options {
   long sequence_frames = -1;
   fs::path work = fs::temp_directory_path() / "imufusion_scan_claims";
   std::vector<std::string> settings = {"imu-1", "imu-2", "icp-10", "icp-30"};
-  int retrack_lost_frames = ReconstructorConfig{}.retrack_lost_frames;  // 0: no backward placement
+  int retrack_lost_frames = ReconstructorConfig{}.smoothing.retrack_frames;  // 0: no backward placement
   double max_condition = IcpReliabilityThresholds{}.max_condition;     // the reliability test's kappa
-  double partial_move_sigma = ReconstructorConfig{}.partial_move_sigma;
-  double retracked_frame_sigma = ReconstructorConfig{}.retracked_frame_sigma;
-  double recovery_agreement_distance = ReconstructorConfig{}.recovery_agreement_distance;
-  bool correct_velocity_after_loss = ReconstructorConfig{}.correct_velocity_after_loss;
-  double seed_gate = 0;  // > 0: ReconstructorConfig::seed_gate_with_imu at this IcpConfig::seed_gate_sigmas
+  double partial_move_sigma = ReconstructorConfig{}.smoothing.partial_move_sigma;
+  double retracked_frame_sigma = ReconstructorConfig{}.smoothing.retracked_frame_sigma;
+  double recovery_agreement_distance = ReconstructorConfig{}.recovery.agreement_distance;
+  bool correct_velocity_after_loss = ReconstructorConfig{}.recovery.correct_velocity;
+  double seed_gate = 0;  // > 0: ReconstructorConfig::imu.seed_gate at this IcpConfig::seed_gate_sigmas
 };
 
 std::vector<std::string> split(const std::string& text) {
@@ -248,21 +248,21 @@ PairedAte paired;
 
 void run_setting(const Loaded& seq, const Setting& setting, const Options& opt) {
   ReconstructorConfig c;
-  c.retrack_lost_frames = opt.retrack_lost_frames;
-  c.partial_move_sigma = opt.partial_move_sigma;
-  c.retracked_frame_sigma = opt.retracked_frame_sigma;
-  c.recovery_agreement_distance = opt.recovery_agreement_distance;
-  c.correct_velocity_after_loss = opt.correct_velocity_after_loss;
+  c.smoothing.retrack_frames = opt.retrack_lost_frames;
+  c.smoothing.partial_move_sigma = opt.partial_move_sigma;
+  c.smoothing.retracked_frame_sigma = opt.retracked_frame_sigma;
+  c.recovery.agreement_distance = opt.recovery_agreement_distance;
+  c.recovery.correct_velocity = opt.correct_velocity_after_loss;
   c.icp.reliability.max_condition = opt.max_condition;
   if (opt.seed_gate > 0) {
-    c.seed_gate_with_imu = true;
+    c.imu.seed_gate = true;
     c.icp.seed_gate_sigmas = opt.seed_gate;
     c.icp.seed_gate_hold_sigmas = std::min(c.icp.seed_gate_hold_sigmas, opt.seed_gate);
   }
   c.intrinsics = *seq.reader->intrinsics();
   c.intrinsics.width = seq.frames.front().depth.width;
   c.intrinsics.height = seq.frames.front().depth.height;
-  c.use_imu = setting.imu && seq.reader->has_imu();
+  c.imu.enabled = setting.imu && seq.reader->has_imu();
   c.icp.max_total_iterations = setting.iterations;
   c.inertial.T_camera_imu = seq.reader->T_camera_imu();
   auto rec = Reconstructor::create(c);

@@ -208,9 +208,9 @@ ReconstructorConfig make_config(const Options& opt, const SequenceReader* reader
   config.intrinsics = k;
   config.volume.voxel_size = opt.voxel_size;
   config.device.selector = opt.device;
-  config.use_imu = !opt.no_imu && (opt.imu_udp || (reader != nullptr && reader->has_imu()));
+  config.imu.enabled = !opt.no_imu && (opt.imu_udp || (reader != nullptr && reader->has_imu()));
   config.icp.max_total_iterations =
-      opt.icp_iterations.value_or(config.use_imu ? kIcpIterationsWithImu : kIcpIterationsWithoutImu);
+      opt.icp_iterations.value_or(config.imu.enabled ? kIcpIterationsWithImu : kIcpIterationsWithoutImu);
   config.tracking.recovery_frames = opt.recovery_frames;
   std::optional<Eigen::Isometry3d> T_camera_imu = source != nullptr ? source->T_camera_imu() : std::nullopt;
   if (reader != nullptr && reader->info().has_imu_to_camera) T_camera_imu = reader->info().T_camera_imu;
@@ -264,11 +264,11 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
   auto& s = j["settings"];
   s["mode"] = opt.poses.empty() ? "track" : "known_poses";
   s["frame_step"] = opt.frame_step;
-  s["imu"] = c.use_imu;
+  s["imu"] = c.imu.enabled;
   s["imu_in_sequence"] = reader != nullptr && reader->has_imu();
-  s["imu_source"] = !c.use_imu ? "none" : opt.imu_udp ? "udp" : "sequence";
+  s["imu_source"] = !c.imu.enabled ? "none" : opt.imu_udp ? "udp" : "sequence";
   s["icp_iterations_cap"] = c.icp.max_total_iterations;
-  s["recovery_icp_iterations"] = c.tracking.recovery_icp_iterations;
+  s["recovery_icp_iterations"] = c.recovery.icp_iterations;
   s["recovery_frames"] = c.tracking.recovery_frames;
   s["translation_model"] = to_string(c.inertial.translation);
   s["camera_imu_rotation"] = c.inertial.T_camera_imu_known ? "given" : "estimated";
@@ -276,7 +276,7 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
   s["truncation"] = c.volume.truncation();
   s["width"] = c.intrinsics.width;
   s["height"] = c.intrinsics.height;
-  if (!run.frames.empty() && c.use_imu) {
+  if (!run.frames.empty() && c.imu.enabled) {
     const InertialStatus& in = run.frames.back().inertial;
     auto& imu = j["imu_estimates"];
     imu["gyro_bias"] = {in.gyro_bias.x(), in.gyro_bias.y(), in.gyro_bias.z()};

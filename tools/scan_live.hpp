@@ -73,7 +73,7 @@ class LiveImu {
   /// Feeds the camera's rotation rate between consecutive reliably tracked frames to the
   /// correlation estimate of the clock offset.
   void observe(const FrameResult& frame) {
-    const bool reliable = frame.icp_ran && frame.icp.reliable && frame.status == TrackingStatus::kTracking;
+    const bool reliable = frame.icp_ran && frame.icp.reliable() && frame.status == TrackingStatus::kTracking;
     if (reliable && previous_ && frame.timestamp > previous_->first) {
       const Eigen::AngleAxisd turn(previous_->second.linear().transpose() * frame.T_world_camera.linear());
       const double frame_offset = frame_clock_.offset().value_or(0.0);

@@ -191,7 +191,7 @@ TEST_F(ScanTool, WallStretchIsReportedAsLostAndNotFused) {
         if (row.at("status") == "tracking") {
           ++partial;
           EXPECT_EQ(row.at("fused"), "1") << " t=" << row.at("timestamp");
-          EXPECT_LE(t - last_constrained, ReconstructorConfig{}.max_partial_seconds + 1e-6) << " t=" << row.at("timestamp");
+          EXPECT_LE(t - last_constrained, ReconstructorConfig{}.imu.max_partial_seconds + 1e-6) << " t=" << row.at("timestamp");
         }
       }
       if (t >= stretch.begin && t <= stretch.end) {

@@ -5,9 +5,9 @@
 
 #include <gtest/gtest.h>
 
-#include "gpu/buffer.hpp"
-#include "gpu/context.hpp"
-#include "gpu/pipeline.hpp"
+#include "vk/buffer.hpp"
+#include "vk/context.hpp"
+#include "vk/pipeline.hpp"
 #include "gpu_test_env.hpp"
 #include "imufusion/device.hpp"
 

@@ -8,7 +8,7 @@
 
 #include <gtest/gtest.h>
 
-#include "gpu/context.hpp"
+#include "vk/context.hpp"
 
 namespace imufusion::test {
 

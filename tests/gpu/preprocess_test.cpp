@@ -14,7 +14,7 @@
 
 #include <gtest/gtest.h>
 
-#include "gpu/command_sequence.hpp"
+#include "vk/command_sequence.hpp"
 #include "gpu/preprocessor.hpp"
 #include "gpu_test_env.hpp"
 #include "imufusion/preprocess.hpp"

@@ -63,7 +63,7 @@ class ReconstructorTest : public test::GpuTest {
     c.intrinsics = *reader_->intrinsics();
     c.intrinsics.width = 160;
     c.intrinsics.height = 120;
-    c.use_imu = imu;
+    c.imu.enabled = imu;
     c.icp.max_total_iterations = iterations;
     c.inertial.T_camera_imu = reader_->T_camera_imu();
     c.device.selector = context_->info().name;
@@ -158,10 +158,10 @@ TEST_F(ReconstructorTest, TracksTheRoomWithTheImuInTwoIterationsPerFrame) {
 }
 
 TEST_F(ReconstructorTest, WithoutTheSeedsReachTheImuSeededBudgetStartsOnThePyramid) {
-  // imu_seed_reach_pixels 0: the 2-step budget keeps one step for full resolution and spends
+  // imu.seed_reach_pixels 0: the 2-step budget keeps one step for full resolution and spends
   // the other at the next coarser level.
   ReconstructorConfig c = config(true, 2);
-  c.imu_seed_reach_pixels = 0;
+  c.imu.seed_reach_pixels = 0;
   Reconstructor rec = make(c);
   for (std::size_t i = 0; i < 8; ++i) {
     const Frame& f = frames_[i];
@@ -179,7 +179,7 @@ TEST_F(ReconstructorTest, TheSeedGateLeavesWellTrackedFramesAlone) {
   // checked once the accelerometer's velocity settled, none is moved back, and tracking is as
   // without it.
   ReconstructorConfig c = config(true, 2);
-  c.seed_gate_with_imu = true;
+  c.imu.seed_gate = true;
   Reconstructor rec = make(c);
   std::size_t inertial = 0;
   for (const Frame& f : frames_) {
@@ -278,9 +278,9 @@ TEST_F(ReconstructorTest, PlacesTheLostFramesBackwardFromTheRecovery) {
   const auto error = [&](const StampedPose& pose) { return position_error(pose); };
   const auto scan = [&](int retrack_lost_frames, std::vector<FrameResult>& results) {
     ReconstructorConfig c = config(true, 2);
-    c.retrack_lost_frames = retrack_lost_frames;
-    c.relocalization_drift_acceleration = 50;  // the search must reach as far as the jolt drifts
-    c.relocalization_interval = 8;
+    c.smoothing.retrack_frames = retrack_lost_frames;
+    c.relocalization.drift_acceleration = 50;  // the search must reach as far as the jolt drifts
+    c.relocalization.interval = 8;
     c.inertial.gravity_min_time = 0.3;  // the accelerometer in use (and jolted) within this short scan
     c.inertial.max_speed = 100;  // the 6 m/s fault uncapped: dead reckoning must drift out of ICP's reach
     Reconstructor rec = make(c);
@@ -341,8 +341,8 @@ TEST_F(ReconstructorTest, ARecoveringFrameFitAtTheWrongPlaceDoesNotEndTheLoss) {
   const std::size_t blank_begin = 14, blank_end = 17, ahead = 7;  // 7.8 cm along the path
   const auto scan = [&](double agreement, std::vector<FrameResult>& results) {
     ReconstructorConfig c = config(true, 2);
-    c.retrack_lost_frames = 0;  // the stretch's end alone re-estimates it
-    c.recovery_agreement_distance = agreement;
+    c.smoothing.retrack_frames = 0;  // the stretch's end alone re-estimates it
+    c.recovery.agreement_distance = agreement;
     Reconstructor rec = make(c);
     for (std::size_t i = 0; i < frames_.size(); ++i) {
       DepthImage depth = frames_[i == blank_end ? i + ahead : i].depth;
@@ -363,7 +363,7 @@ TEST_F(ReconstructorTest, ARecoveringFrameFitAtTheWrongPlaceDoesNotEndTheLoss) {
   const auto recovery = static_cast<std::size_t>(ReconstructorConfig{}.tracking.recovery_frames);
 
   std::vector<FrameResult> results;
-  Reconstructor rec = scan(ReconstructorConfig{}.recovery_agreement_distance, results);
+  Reconstructor rec = scan(ReconstructorConfig{}.recovery.agreement_distance, results);
   ASSERT_EQ(results.size(), frames_.size());
   EXPECT_EQ(results[blank_end].status, TrackingStatus::kRecovering);
   EXPECT_GT(error({results[blank_end].timestamp, results[blank_end].T_world_camera}), 0.05) << "no wrong fit";
@@ -512,8 +512,8 @@ TEST_F(ReconstructorTest, TheFirstFramePlacedAfterALossCorrectsTheVelocity) {
   const auto move_after = [&](bool correct, double gravity_sigma_scale) {
     ReconstructorConfig c = config(true, 2);
     c.inertial.gravity_min_time = 0.3;  // the accelerometer in use within this short scan
-    c.correct_velocity_after_loss = correct;
-    c.drift_gravity_sigma_scale = gravity_sigma_scale;
+    c.recovery.correct_velocity = correct;
+    c.smoothing.gravity_sigma_scale = gravity_sigma_scale;
     Reconstructor rec = make(c);
     const std::vector<FrameResult> results = scan_jolted(
         rec, placed + 1, [&](std::size_t i) { return i >= blank_begin && i <= placed ? 6.0 : 0.0; },
@@ -532,7 +532,7 @@ TEST_F(ReconstructorTest, TheFirstFramePlacedAfterALossCorrectsTheVelocity) {
   const double corrected = move_after(true, wide), dead_reckoned = move_after(false, wide);
   EXPECT_GT(dead_reckoned, 0.015);
   EXPECT_LT(corrected, 0.4 * dead_reckoned);
-  const double scale = ReconstructorConfig{}.drift_gravity_sigma_scale;
+  const double scale = ReconstructorConfig{}.smoothing.gravity_sigma_scale;
   EXPECT_NEAR(move_after(true, scale), move_after(false, scale), 1e-4);
 }
 
@@ -642,14 +642,14 @@ TEST(ReconstructorConfig, RejectsSettingsOutOfRange) {
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.error().message.find("recovery_frames"), std::string::npos);
   c.tracking.recovery_frames = 3;
-  c.drift_gravity_sigma_scale = 0;
+  c.smoothing.gravity_sigma_scale = 0;
   s = c.validate();
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.error().message.find("drift sigma"), std::string::npos);
-  c.drift_gravity_sigma_scale = 2.3;
-  c.drift_gyro_bias_sigma_scale = std::numeric_limits<double>::quiet_NaN();
+  c.smoothing.gravity_sigma_scale = 2.3;
+  c.smoothing.gyro_bias_sigma_scale = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(c.validate().ok());
-  c.drift_gyro_bias_sigma_scale = 0.3;
+  c.smoothing.gyro_bias_sigma_scale = 0.3;
   EXPECT_TRUE(c.validate().ok());
   c.icp.depth_noise.b = -0.001;
   s = c.validate();
@@ -657,34 +657,34 @@ TEST(ReconstructorConfig, RejectsSettingsOutOfRange) {
   EXPECT_NE(s.error().message.find("depth noise"), std::string::npos);
   c.icp.depth_noise.b = 0.0019;
   EXPECT_TRUE(c.validate().ok());
-  c.retrack_lost_frames = -1;
+  c.smoothing.retrack_frames = -1;
   s = c.validate();
   ASSERT_FALSE(s.ok());
-  EXPECT_NE(s.error().message.find("retrack_lost_frames"), std::string::npos);
-  c.retrack_lost_frames = 0;
-  c.partial_move_sigma = -0.01;
+  EXPECT_NE(s.error().message.find("smoothing.retrack_frames"), std::string::npos);
+  c.smoothing.retrack_frames = 0;
+  c.smoothing.partial_move_sigma = -0.01;
   s = c.validate();
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.error().message.find("partial_move_sigma"), std::string::npos);
-  c.partial_move_sigma = std::numeric_limits<double>::infinity();
+  c.smoothing.partial_move_sigma = std::numeric_limits<double>::infinity();
   EXPECT_FALSE(c.validate().ok());
-  c.partial_move_sigma = 0;  // the moves not recorded
+  c.smoothing.partial_move_sigma = 0;  // the moves not recorded
   EXPECT_TRUE(c.validate().ok());
-  c.retracked_frame_sigma = -0.003;
+  c.smoothing.retracked_frame_sigma = -0.003;
   s = c.validate();
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.error().message.find("retracked_frame_sigma"), std::string::npos);
-  c.retracked_frame_sigma = std::numeric_limits<double>::quiet_NaN();
+  c.smoothing.retracked_frame_sigma = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(c.validate().ok());
-  c.retracked_frame_sigma = 0;  // the oldest frame placed is the end
+  c.smoothing.retracked_frame_sigma = 0;  // the oldest frame placed is the end
   EXPECT_TRUE(c.validate().ok());
-  c.recovery_agreement_distance = -0.05;
+  c.recovery.agreement_distance = -0.05;
   s = c.validate();
   ASSERT_FALSE(s.ok());
-  EXPECT_NE(s.error().message.find("recovery_agreement_distance"), std::string::npos);
-  c.recovery_agreement_distance = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(s.error().message.find("recovery.agreement_distance"), std::string::npos);
+  c.recovery.agreement_distance = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(c.validate().ok());
-  c.recovery_agreement_distance = 0;  // no check
+  c.recovery.agreement_distance = 0;  // no check
   EXPECT_TRUE(c.validate().ok());
   c.initial_pose.translation().x() = std::numeric_limits<double>::infinity();
   EXPECT_FALSE(c.validate().ok());

@@ -34,7 +34,7 @@
 #include <optional>
 #include <vector>
 
-#include "gpu/buffer.hpp"
+#include "vk/buffer.hpp"
 #include "gpu_test_env.hpp"
 #include "imufusion/fusion.hpp"
 #include "imufusion/synth.hpp"

@@ -2,8 +2,8 @@
 
 #include <gtest/gtest.h>
 
-#include "gpu/context.hpp"
-#include "gpu/vk_error.hpp"
+#include "vk/context.hpp"
+#include "vk/vk_error.hpp"
 
 namespace imufusion {
 namespace {

@@ -186,7 +186,7 @@ TEST(IcpCpu, RecoversAKnownMotionInTheRoom) {
   const Eigen::Isometry3d error = pair.T_ref_cur.inverse() * result->T_ref_cur;
   EXPECT_LT(error.translation().norm(), 0.002);
   EXPECT_LT(rotation_deg(error), 0.1);
-  EXPECT_TRUE(result->reliable) << result->reason;
+  EXPECT_TRUE(result->reliable()) << result->reason;
   EXPECT_GT(result->quality.iterations, 1);
   // The pyramid ran: some steps at the coarser levels, and at least one at full resolution.
   EXPECT_GT(result->quality.coarse_iterations, 0);
@@ -202,7 +202,7 @@ TEST(IcpCpu, AFlatWallIsIllConditionedAndUnreliable) {
   auto result = run_icp(source, IcpConfig{}, Eigen::Isometry3d::Identity());
   ASSERT_TRUE(result.ok());
   EXPECT_GT(result->quality.condition, 1e3);
-  EXPECT_FALSE(result->reliable);
+  EXPECT_FALSE(result->reliable());
   EXPECT_NE(result->reason.find("condition"), std::string::npos) << result->reason;
 }
 
@@ -220,8 +220,8 @@ TEST(IcpCpu, AFlatWallSolvedDegeneracyAwareKeepsTheSeedAlongTheWall) {
   reference::CpuNormalEquationSource source(pair.reference, pair.current, pair.k);
   auto result = run_icp(source, config, seed);
   ASSERT_TRUE(result.ok());
-  EXPECT_FALSE(result->reliable);
-  EXPECT_TRUE(result->partial) << result->reason;
+  EXPECT_FALSE(result->reliable());
+  EXPECT_TRUE(result->partial()) << result->reason;
   EXPECT_EQ(result->quality.constrained_directions, 3);
   // The one translation it fixed is the distance to the wall (the reference's z).
   Eigen::Matrix3d normal_only = Eigen::Matrix3d::Zero();
@@ -234,8 +234,8 @@ TEST(IcpCpu, AFlatWallSolvedDegeneracyAwareKeepsTheSeedAlongTheWall) {
   reference::CpuNormalEquationSource plain_source(pair.reference, pair.current, pair.k);
   auto plain = run_icp(plain_source, IcpConfig{}, seed);
   ASSERT_TRUE(plain.ok());
-  EXPECT_FALSE(plain->partial);
-  EXPECT_FALSE(plain->reliable);
+  EXPECT_FALSE(plain->partial());
+  EXPECT_FALSE(plain->reliable());
 }
 
 TEST(IcpCpu, DegeneracyAwareSolvingLeavesAWellConstrainedAlignmentUnchanged) {
@@ -249,8 +249,8 @@ TEST(IcpCpu, DegeneracyAwareSolvingLeavesAWellConstrainedAlignmentUnchanged) {
   auto with = run_icp(a, aware, Eigen::Isometry3d::Identity());
   auto without = run_icp(b, IcpConfig{}, Eigen::Isometry3d::Identity());
   ASSERT_TRUE(with.ok() && without.ok());
-  EXPECT_TRUE(with->reliable) << with->reason;
-  EXPECT_FALSE(with->partial);
+  EXPECT_TRUE(with->reliable()) << with->reason;
+  EXPECT_FALSE(with->partial());
   EXPECT_EQ(with->quality.constrained_directions, 6);
   EXPECT_TRUE(with->fixed_translation.isIdentity());
   EXPECT_LT((with->T_ref_cur.matrix() - without->T_ref_cur.matrix()).norm(), 1e-9);
@@ -266,7 +266,7 @@ TEST(IcpCpu, DegenerateInputGivesAnUnreliableFinitePose) {
   reference::CpuNormalEquationSource no_pixels(pair.reference, empty, pair.k);
   auto a = run_icp(no_pixels, IcpConfig{}, Eigen::Isometry3d::Identity());
   ASSERT_TRUE(a.ok());
-  EXPECT_FALSE(a->reliable);
+  EXPECT_FALSE(a->reliable());
   EXPECT_TRUE(a->T_ref_cur.matrix().allFinite());
   EXPECT_EQ(a->quality.inliers, 0u);
 
@@ -276,7 +276,7 @@ TEST(IcpCpu, DegenerateInputGivesAnUnreliableFinitePose) {
   off.translation() = Eigen::Vector3d(0, 0, 3.0);
   auto b = run_icp(far, IcpConfig{}, off);
   ASSERT_TRUE(b.ok());
-  EXPECT_FALSE(b->reliable);
+  EXPECT_FALSE(b->reliable());
   EXPECT_TRUE(b->T_ref_cur.matrix().allFinite());
 
   // A NaN start.
@@ -284,7 +284,7 @@ TEST(IcpCpu, DegenerateInputGivesAnUnreliableFinitePose) {
   nan(0, 3) = std::numeric_limits<double>::quiet_NaN();
   auto c = run_icp(far, IcpConfig{}, nan);
   ASSERT_TRUE(c.ok());
-  EXPECT_FALSE(c->reliable);
+  EXPECT_FALSE(c->reliable());
   EXPECT_TRUE(c->T_ref_cur.matrix().allFinite());
 }
 
@@ -394,8 +394,8 @@ TEST(IcpSeedGate, AWeakDirectionThatMovesFarFromTheSeedKeepsTheSeed) {
   QuadraticSource source(gate_singular_values(), gate_target(0.008));
   auto result = run_icp(source, gated_config(), Eigen::Isometry3d::Identity());
   ASSERT_TRUE(result.ok());
-  EXPECT_FALSE(result->reliable);
-  EXPECT_TRUE(result->partial) << result->reason;
+  EXPECT_FALSE(result->reliable());
+  EXPECT_TRUE(result->partial()) << result->reason;
   EXPECT_EQ(result->quality.constrained_directions, 5);
   EXPECT_GT(result->quality.seed_disagreement, 7.0);
   EXPECT_NE(result->reason.find("kappa 200"), std::string::npos) << result->reason;
@@ -412,8 +412,8 @@ TEST(IcpSeedGate, AMoveWithinTheUncertaintyIsTakenWhole) {
   QuadraticSource source(gate_singular_values(), gate_target(0.002));  // 2 sigma
   auto result = run_icp(source, gated_config(), Eigen::Isometry3d::Identity());
   ASSERT_TRUE(result.ok());
-  EXPECT_TRUE(result->reliable) << result->reason;
-  EXPECT_FALSE(result->partial);
+  EXPECT_TRUE(result->reliable()) << result->reason;
+  EXPECT_FALSE(result->partial());
   EXPECT_NEAR(result->quality.seed_disagreement, 2.0, 0.1);
   EXPECT_NEAR(result->T_ref_cur.translation().z(), 0.002, 1e-6);
 }
@@ -425,7 +425,7 @@ TEST(IcpSeedGate, StrongDirectionsAndUnknownSeedsAreNotGated) {
   QuadraticSource a(gate_singular_values(), strong);
   auto along_strong = run_icp(a, gated_config(), Eigen::Isometry3d::Identity());
   ASSERT_TRUE(along_strong.ok());
-  EXPECT_TRUE(along_strong->reliable) << along_strong->reason;
+  EXPECT_TRUE(along_strong->reliable()) << along_strong->reason;
   EXPECT_NEAR(along_strong->T_ref_cur.translation().x(), 0.008, 1e-6);
   // Without a seed uncertainty there is no gate.
   IcpConfig unknown = gated_config();
@@ -433,7 +433,7 @@ TEST(IcpSeedGate, StrongDirectionsAndUnknownSeedsAreNotGated) {
   QuadraticSource b(gate_singular_values(), gate_target(0.008));
   auto ungated = run_icp(b, unknown, Eigen::Isometry3d::Identity());
   ASSERT_TRUE(ungated.ok());
-  EXPECT_TRUE(ungated->reliable) << ungated->reason;
+  EXPECT_TRUE(ungated->reliable()) << ungated->reason;
   EXPECT_EQ(ungated->quality.seed_disagreement, 0.0);
   EXPECT_NEAR(ungated->T_ref_cur.translation().z(), 0.008, 1e-6);
 }
@@ -461,7 +461,7 @@ TEST(IcpSeedPrior, EachDirectionIsWeighedBetweenTheDepthAndTheSeed) {
   EXPECT_LT(result->T_ref_cur.translation().z(), 0.006);
   // tx (s = 2e4): the depth outweighs the prediction 280 to 1.
   EXPECT_NEAR(result->T_ref_cur.translation().x(), 0.001, 1e-5);
-  EXPECT_TRUE(result->reliable) << result->reason;
+  EXPECT_TRUE(result->reliable()) << result->reason;
   // Without a translation sigma there is no prior: ICP's pose whole.
   IcpConfig rotation_only = prior_config();
   rotation_only.seed_sigma_translation = 0;
@@ -478,7 +478,7 @@ TEST(IcpSeedPrior, AFrameThatPairsFewPixelsButAgreesWithTheSeedIsReliable) {
   QuadraticSource agreeing(s, gate_target(0.001), 0.3);  // 30 % paired, under the 40 % test
   auto agreed = run_icp(agreeing, prior_config(), Eigen::Isometry3d::Identity());
   ASSERT_TRUE(agreed.ok());
-  EXPECT_TRUE(agreed->reliable) << agreed->reason;
+  EXPECT_TRUE(agreed->reliable()) << agreed->reason;
   EXPECT_TRUE(agreed->quality.agreed_with_seed);
   EXPECT_GT(agreed->quality.seed_chi2, 0.0);
   EXPECT_LT(agreed->quality.seed_chi2, 22.46);
@@ -496,7 +496,7 @@ TEST(IcpSeedPrior, AFrameThatPairsFewPixelsButAgreesWithTheSeedIsReliable) {
   QuadraticSource disagreeing(s, far, 0.3);
   auto refused = run_icp(disagreeing, prior_config(), Eigen::Isometry3d::Identity());
   ASSERT_TRUE(refused.ok());
-  EXPECT_FALSE(refused->reliable);
+  EXPECT_FALSE(refused->reliable());
   EXPECT_FALSE(refused->quality.agreed_with_seed);
   EXPECT_GT(refused->quality.seed_chi2, 22.46);
   EXPECT_NE(refused->reason.find("inlier fraction"), std::string::npos) << refused->reason;
@@ -504,7 +504,7 @@ TEST(IcpSeedPrior, AFrameThatPairsFewPixelsButAgreesWithTheSeedIsReliable) {
   QuadraticSource scarce(s, gate_target(0.001), 0.15);
   auto too_few = run_icp(scarce, prior_config(), Eigen::Isometry3d::Identity());
   ASSERT_TRUE(too_few.ok());
-  EXPECT_FALSE(too_few->reliable);
+  EXPECT_FALSE(too_few->reliable());
 }
 
 TEST(IcpConfigValidate, RejectsBadSeedGateSettings) {

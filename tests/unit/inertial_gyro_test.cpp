@@ -211,7 +211,7 @@ TEST(InertialGyro, BiasJacobianMatchesFiniteDifferences) {
     const Eigen::Vector3d db = h * Eigen::Vector3d::Unit(a);
     const inertial::ImuIntegration moved =
         buffer.integrate(1.1, 1.4, b + db, Eigen::Matrix3d::Identity());
-    const Eigen::Vector3d numeric = inertial::log_so3(base.R_a_b.transpose() * moved.R_a_b) / h;
+    const Eigen::Vector3d numeric = imufusion::log_so3(base.R_a_b.transpose() * moved.R_a_b) / h;
     EXPECT_LT((numeric - base.J_bias.col(a)).norm(), 1e-5 * 0.3) << "axis " << a;
   }
   // About -dt I for a short interval, so the test's tolerance is meaningful.

@@ -57,10 +57,10 @@ void add_pairs(inertial::HandEyeCalibrator& calibrator, const Eigen::Matrix3d& R
   std::normal_distribution<double> n(0.0, 0.01 * kDeg);
   for (const Eigen::Vector3d& a : imu_rotations) {
     inertial::ImuIntegration integ;
-    integ.R_a_b = inertial::exp_so3(a);
+    integ.R_a_b = imufusion::exp_so3(a);
     integ.J_bias = -Eigen::Matrix3d::Identity() / 30.0;
     const Eigen::Vector3d noise(n(rng), n(rng), n(rng));
-    calibrator.add(R_ci * inertial::exp_so3(a + noise) * R_ci.transpose(), integ);
+    calibrator.add(R_ci * imufusion::exp_so3(a + noise) * R_ci.transpose(), integ);
   }
 }
 
@@ -95,9 +95,9 @@ TEST(InertialHandEye, SolvesTheBiasJointly) {
     const Eigen::Vector3d a(n(rng), n(rng), n(rng));
     inertial::ImuIntegration integ;
     // Measured with zero bias removed: R_meas = R_true Exp(-J b) with J = -dt I.
-    integ.R_a_b = inertial::exp_so3(a) * inertial::exp_so3(b / 30.0);
+    integ.R_a_b = imufusion::exp_so3(a) * imufusion::exp_so3(b / 30.0);
     integ.J_bias = -Eigen::Matrix3d::Identity() / 30.0;
-    calibrator.add(R_ci * inertial::exp_so3(a) * R_ci.transpose(), integ);
+    calibrator.add(R_ci * imufusion::exp_so3(a) * R_ci.transpose(), integ);
   }
   const auto sol = calibrator.solve(Eigen::Vector3d::Zero());
   EXPECT_LT(test::angle_between(sol.R_camera_imu, R_ci), 0.01 * kDeg);

@@ -26,7 +26,7 @@ struct AnalyticMotion {
 
   Eigen::Isometry3d pose(double t) const {
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = R0 * inertial::exp_so3(omega_camera * t);
+    T.linear() = R0 * imufusion::exp_so3(omega_camera * t);
     T.translation() = p0 + v0 * t + 0.5 * accel * t * t;
     return T;
   }

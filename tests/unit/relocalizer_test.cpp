@@ -13,6 +13,7 @@
 
 #include <gtest/gtest.h>
 
+#include "core/drift_model.hpp"
 #include "core/relocalizer.hpp"
 
 namespace imufusion {

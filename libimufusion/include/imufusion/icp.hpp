@@ -180,14 +180,18 @@ struct IcpQuality {
   bool agreed_with_seed = false;
 };
 
+/// What an alignment may be used for: every direction (reliable), some (partial), none.
+enum class IcpVerdict { kUnreliable, kReliable, kPartial };
+
 struct IcpResult {
   Eigen::Isometry3d T_ref_cur = Eigen::Isometry3d::Identity();  // always finite
   IcpQuality quality;
-  bool reliable = false;
-  /// Degeneracy-aware solving only: the alignment passed every test but the condition number,
-  /// the depth constrained at least min_constrained_directions directions and the others kept
-  /// the initial pose. Never set together with `reliable`.
-  bool partial = false;
+  /// kPartial (degeneracy-aware solving only): the alignment passed every test but the
+  /// condition number, the depth constrained at least min_constrained_directions directions and
+  /// the others kept the initial pose.
+  IcpVerdict verdict = IcpVerdict::kUnreliable;
+  bool reliable() const { return verdict == IcpVerdict::kReliable; }
+  bool partial() const { return verdict == IcpVerdict::kPartial; }
   /// For a partial result, the translation directions ICP fixed (a projector in the reference
   /// camera frame, see IcpStep::fixed_translation); identity for a full solve.
   Eigen::Matrix3d fixed_translation = Eigen::Matrix3d::Identity();

@@ -40,7 +40,7 @@ struct ScanStatistics {
   double mean_icp_iterations = 0;    // over frames where ICP ran
   double median_icp_iterations = 0;  // over frames where ICP ran
   /// Over tracking frames where ICP ran: the paper's per-frame figure. Lost and recovering
-  /// frames run the recovery's budget (TrackingConfig::recovery_icp_iterations) while they look
+  /// frames run the recovery's budget (RecoveryConfig::icp_iterations) while they look
   /// for the model, so a scan lost much of the time has a higher median over all frames.
   double median_icp_iterations_tracking = 0;
   double mean_frame_ms = 0;

@@ -52,9 +52,6 @@ struct TrackingConfig {
   /// Consecutive reliable, converged frames after a loss before fusion resumes (hysteresis: one
   /// lucky alignment against a half-seen model must not smear a wrong pose into the volume).
   int recovery_frames = 3;
-  /// Cap on Gauss-Newton steps for a frame while lost or recovering (the seed is then a
-  /// dead-reckoned pose, further off than after a tracked frame).
-  int recovery_icp_iterations = 10;
   /// The pairing test follows what aligned frames of this scan pair: a frame must pair at least
   /// `pairing_ratio` of the median over the last `pairing_window` frames ICP tracked in all six
   /// directions, where that is below IcpReliabilityThresholds' min_inlier_fraction /

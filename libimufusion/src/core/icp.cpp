@@ -9,7 +9,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 
-#include "core/inertial_internal.hpp"
+#include "core/so3.hpp"
 #include "imufusion/icp.hpp"
 
 namespace imufusion {
@@ -48,7 +48,7 @@ double residual_at(const NormalEquations& eq, const Vector6d& x) {
 Vector6d update_towards(const Eigen::Isometry3d& T_target, const Eigen::Isometry3d& T) {
   const Eigen::Isometry3d delta = T_target * T.inverse();
   Vector6d x;
-  x << inertial::log_so3(delta.linear()), delta.translation();
+  x << log_so3(delta.linear()), delta.translation();
   return x;
 }
 
@@ -104,14 +104,14 @@ double seed_chi2(const NormalEquations& eq, double scale, const Vector6d& info, 
 // twice its) becomes reliable when its chi^2 from the initial pose is within the limit.
 void accept_if_agreeing(const IcpConfig& config, IcpResult& result) {
   IcpQuality& q = result.quality;
-  if (result.reliable || !q.converged || !(config.seed_agreement_chi2 > 0) || !(q.seed_chi2 <= config.seed_agreement_chi2))
+  if (result.reliable() || !q.converged || !(config.seed_agreement_chi2 > 0) || !(q.seed_chi2 <= config.seed_agreement_chi2))
     return;
   IcpReliabilityThresholds pairing = config.reliability;
   pairing.min_inlier_fraction *= 0.5;
   pairing.min_pixel_fraction *= 0.5;
   pairing.max_residual_per_weight *= 2;
   if (!judge_icp(q, pairing, nullptr)) return;
-  result.reliable = true;
+  result.verdict = IcpVerdict::kReliable;
   q.agreed_with_seed = true;
   result.reason.clear();
 }
@@ -163,14 +163,13 @@ void gate_against_seed(const IcpStep& last, const IcpConfig& config, const Eigen
   const Eigen::Matrix<double, 6, 1> kept = xi - removed;
   result.T_ref_cur = icp_increment(kept) * T_init;
   result.quality.constrained_directions = constrained;
-  const bool was_reliable = result.reliable;
-  result.reliable = false;
-  result.partial = constrained >= config.min_constrained_directions;
-  result.fixed_translation = result.partial ? fixed_translation_without(left_out) : Eigen::Matrix3d::Zero();
+  const bool was_reliable = result.reliable();
+  result.verdict = constrained >= config.min_constrained_directions ? IcpVerdict::kPartial : IcpVerdict::kUnreliable;
+  result.fixed_translation = result.partial() ? fixed_translation_without(left_out) : Eigen::Matrix3d::Zero();
   std::string why = "moved " + format(worst) + " sigma from the initial pose along a direction with kappa " +
                     format(worst_kappa);
   if (!was_reliable) why = result.reason + "; " + why;
-  result.reason = why + (result.partial ? partial_reason(constrained) : std::string());
+  result.reason = why + (result.partial() ? partial_reason(constrained) : std::string());
 }
 
 }  // namespace
@@ -373,27 +372,27 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
     result.reason = result.quality.inliers == 0 ? "no correspondences" : "the ICP system is degenerate";
     return result;
   }
-  result.reliable = judge_icp(result.quality, config.reliability, &result.reason);
-  if (result.reliable && finest_run != 0) {
-    result.reliable = false;
+  result.verdict = judge_icp(result.quality, config.reliability, &result.reason) ? IcpVerdict::kReliable : IcpVerdict::kUnreliable;
+  if (result.reliable() && finest_run != 0) {
+    result.verdict = IcpVerdict::kUnreliable;
     result.reason = "level 0 was not reached";
   }
   if (prior && finest_run == 0 && last_scale > 0) {
     result.quality.seed_chi2 = seed_chi2(last_eq, last_scale, *prior, update_towards(T, T_ref_cur_init));
     if (result.quality.condition <= config.reliability.max_condition) accept_if_agreeing(config, result);
   }
-  if (!result.reliable && config.keep_seed_in_degenerate_directions && finest_run == 0 &&
+  if (!result.reliable() && config.keep_seed_in_degenerate_directions && finest_run == 0 &&
       result.quality.constrained_directions >= config.min_constrained_directions) {
     // Partial: every test but the condition passes (judged with the condition let through).
     IcpReliabilityThresholds t = config.reliability;
     t.max_condition = std::numeric_limits<double>::infinity();
     if (judge_icp(result.quality, t, nullptr)) {
-      result.partial = true;
+      result.verdict = IcpVerdict::kPartial;
       result.fixed_translation = last_fixed;
       result.reason += partial_reason(result.quality.constrained_directions);
     }
   }
-  if ((result.reliable || result.partial) && seed_gate) gate_against_seed(last_step, config, T_ref_cur_init, result);
+  if ((result.reliable() || result.partial()) && seed_gate) gate_against_seed(last_step, config, T_ref_cur_init, result);
   return result;
 }
 

@@ -11,20 +11,12 @@
 #include <span>
 #include <vector>
 
+#include "core/so3.hpp"
 #include "imufusion/inertial.hpp"
 #include "imufusion/result.hpp"
 #include "imufusion/types.hpp"
 
 namespace imufusion::inertial {
-
-/// [v]x: the cross-product matrix, [v]x w = v x w.
-Eigen::Matrix3d skew(const Eigen::Vector3d& v);
-/// Exp of a rotation vector (rad).
-Eigen::Matrix3d exp_so3(const Eigen::Vector3d& phi);
-/// Log of a rotation: the rotation vector (rad), angle in [0, pi].
-Eigen::Vector3d log_so3(const Eigen::Matrix3d& R);
-/// Right Jacobian of SO(3): Exp(phi + d) ~ Exp(phi) Exp(Jr(phi) d).
-Eigen::Matrix3d right_jacobian_so3(const Eigen::Vector3d& phi);
 
 /// IMU motion over [ta, tb] integrated from the samples (see inertial.hpp for the rate rule).
 struct ImuIntegration {

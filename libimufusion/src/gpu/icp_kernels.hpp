@@ -5,10 +5,10 @@
 #include <memory>
 #include <vector>
 
-#include "gpu/buffer.hpp"
-#include "gpu/command_sequence.hpp"
-#include "gpu/context.hpp"
-#include "gpu/pipeline.hpp"
+#include "vk/buffer.hpp"
+#include "vk/command_sequence.hpp"
+#include "vk/context.hpp"
+#include "vk/pipeline.hpp"
 #include "gpu/preprocessor.hpp"
 #include "imufusion/icp.hpp"
 

@@ -4,8 +4,8 @@
 #include <array>
 #include <utility>
 
-#include "gpu/command_sequence.hpp"
-#include "gpu/context.hpp"
+#include "vk/command_sequence.hpp"
+#include "vk/context.hpp"
 #include "gpu/icp_kernels.hpp"
 #include "gpu/preprocessor.hpp"
 #include "imufusion/icp.hpp"

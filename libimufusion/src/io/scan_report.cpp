@@ -46,7 +46,7 @@ std::string frames_csv_row(const FrameResult& f, std::uint32_t allocated_blocks)
     row += ",,,,";
   }
   row += std::string(",") + (f.fused ? "1" : "0") + "," + format("%.2f", f.timings.total_ms) + ",";
-  row += f.icp_ran ? std::string(f.icp.reliable ? "1" : "0") + "," + csv_field(f.icp.reason) + "," +
+  row += f.icp_ran ? std::string(f.icp.reliable() ? "1" : "0") + "," + csv_field(f.icp.reason) + "," +
                          std::to_string(f.icp.quality.constrained_directions) + "," +
                          format("%.3g", f.icp.quality.seed_disagreement) + "," +
                          format("%.3g", f.icp.quality.seed_chi2) + "," + (f.icp.quality.agreed_with_seed ? "1" : "0") +

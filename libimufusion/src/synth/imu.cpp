@@ -8,6 +8,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "core/so3.hpp"
 #include "imufusion/synth.hpp"
 #include "synth/random.hpp"
 
@@ -17,12 +18,6 @@ namespace {
 
 constexpr double kRotationStep = 1e-4;  // seconds, central difference for angular velocity
 constexpr double kPositionStep = 1e-3;  // seconds, second difference for acceleration
-
-/// Rotation vector of a rotation matrix (radians).
-Eigen::Vector3d log_so3(const Eigen::Matrix3d& R) {
-  const Eigen::AngleAxisd aa(R);
-  return aa.angle() * aa.axis();
-}
 
 Eigen::Isometry3d imu_pose(const CameraMotion& motion, const Eigen::Isometry3d& T_camera_imu,
                            double t) {

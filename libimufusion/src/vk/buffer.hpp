@@ -10,7 +10,7 @@
 
 #include <vulkan/vulkan.h>
 
-#include "gpu/context.hpp"
+#include "vk/context.hpp"
 #include "imufusion/result.hpp"
 
 namespace imufusion::gpu {

@@ -11,7 +11,7 @@
 
 #include <vulkan/vulkan.h>
 
-#include "gpu/context.hpp"
+#include "vk/context.hpp"
 #include "imufusion/result.hpp"
 
 namespace imufusion::gpu {

@@ -12,9 +12,9 @@
 
 #include <vulkan/vulkan.h>
 
-#include "gpu/buffer.hpp"
-#include "gpu/context.hpp"
-#include "gpu/pipeline.hpp"
+#include "vk/buffer.hpp"
+#include "vk/context.hpp"
+#include "vk/pipeline.hpp"
 #include "imufusion/device.hpp"
 #include "imufusion/result.hpp"
 

@@ -7,18 +7,18 @@
 #include <limits>
 
 #include "core/inertial_internal.hpp"
-#include "gpu/reconstructor_impl.hpp"
+#include "scan/reconstructor_impl.hpp"
 
 namespace imufusion {
 
 // How far dead reckoning may have drifted since the last fully constrained frame (m), from
-// the coarsest ICP level's reach up to relocalization_max_radius.
+// the coarsest ICP level's reach up to relocalization.max_radius.
 double Reconstructor::Impl::drift_radius(double timestamp) const {
   const double lost_seconds = timestamp - last_constrained_time;
   const auto coarse = static_cast<std::size_t>(config.preprocess.levels - 1);
-  return std::min(config.relocalization_max_radius,
+  return std::min(config.relocalization.max_radius,
                   std::max<double>(config.icp.max_distance[coarse],
-                                   0.5 * config.relocalization_drift_acceleration * lost_seconds * lost_seconds));
+                                   0.5 * config.relocalization.drift_acceleration * lost_seconds * lost_seconds));
 }
 
 // A loss long enough that the dead-reckoned seed may lie beyond ICP's reach: an alignment
@@ -26,12 +26,12 @@ double Reconstructor::Impl::drift_radius(double timestamp) const {
 // confirmed by the relocalization search.
 bool Reconstructor::Impl::long_loss(double timestamp, const MotionPrediction& prediction) const {
   const auto coarse = static_cast<std::size_t>(config.preprocess.levels - 1);
-  return config.relocalize_with_imu && prediction.rotation_from_imu && machine.status() == TrackingStatus::kLost &&
+  return config.relocalization.enabled && prediction.rotation_from_imu && machine.status() == TrackingStatus::kLost &&
          drift_radius(timestamp) > config.icp.max_distance[coarse];
 }
 
-// Whether this frame searches for its pose (see ReconstructorConfig::relocalize_with_imu):
-// every relocalization_interval lost frames, and whenever ICP from the seed would end a long
+// Whether this frame searches for its pose (see ReconstructorConfig::relocalization.enabled):
+// every relocalization.interval lost frames, and whenever ICP from the seed would end a long
 // loss.
 bool Reconstructor::Impl::may_relocalize(const IcpResult& icp, const MotionPrediction& prediction,
                                          bool long_loss) {
@@ -39,9 +39,9 @@ bool Reconstructor::Impl::may_relocalize(const IcpResult& icp, const MotionPredi
     lost_frames_since_attempt = 0;
     return false;
   }
-  if (!config.relocalize_with_imu || !prediction.rotation_from_imu) return false;
-  if (icp.reliable) return long_loss;
-  if (++lost_frames_since_attempt < config.relocalization_interval) return false;
+  if (!config.relocalization.enabled || !prediction.rotation_from_imu) return false;
+  if (icp.reliable()) return long_loss;
+  if (++lost_frames_since_attempt < config.relocalization.interval) return false;
   lost_frames_since_attempt = 0;
   return true;
 }
@@ -51,11 +51,11 @@ Status Reconstructor::Impl::build_field() {
   if (!snapshot) return snapshot.error();
   std::vector<Eigen::Vector3d> surface = volume_surface_points(*snapshot);
   // Only the region a search can reach: an unbounded scene costs no more than a room.
-  const double cutoff = 4 * config.relocalization_cell;
+  const double cutoff = 4 * config.relocalization.cell;
   const Eigen::Vector3d anchor = trajectory[last_constrained_index].T_world_camera.translation();
-  const double reach = config.relocalization_max_radius + config.preprocess.max_depth + cutoff;
+  const double reach = config.relocalization.max_radius + config.preprocess.max_depth + cutoff;
   std::erase_if(surface, [&](const Eigen::Vector3d& p) { return (p - anchor).cwiseAbs().maxCoeff() > reach; });
-  field = SurfaceDistanceField(surface, config.relocalization_cell, cutoff);
+  field = SurfaceDistanceField(surface, config.relocalization.cell, cutoff);
   field_current = true;
   return {};
 }
@@ -87,15 +87,15 @@ Result<std::optional<Reconstructor::Impl::Relocalization>> Reconstructor::Impl::
     points = std::move(kept);
   }
   std::vector<TranslationCandidate> candidates = field.search(
-      points, T_world_estimate.linear(), T_world_estimate.translation(), radius, config.relocalization_candidates);
+      points, T_world_estimate.linear(), T_world_estimate.translation(), radius, config.relocalization.candidates);
   // Dead reckoning may have drifted beyond the search, while a hand-held camera that turns back
   // to the scanned model is seldom far from where the scan was lost: search there too.
   const Eigen::Vector3d lost_at = trajectory[last_constrained_index].T_world_camera.translation();
-  if ((lost_at - T_world_estimate.translation()).norm() > config.relocalization_cell) {
+  if ((lost_at - T_world_estimate.translation()).norm() > config.relocalization.cell) {
     candidates = merge_candidates(
         candidates,
-        field.search(points, T_world_estimate.linear(), lost_at, radius, config.relocalization_candidates),
-        config.relocalization_candidates, 2 * config.relocalization_cell);
+        field.search(points, T_world_estimate.linear(), lost_at, radius, config.relocalization.candidates),
+        config.relocalization.candidates, 2 * config.relocalization.cell);
   }
   std::optional<Relocalization> best;
   IcpReliabilityThresholds plausible = reliability(depth);
@@ -112,11 +112,11 @@ Result<std::optional<Reconstructor::Impl::Relocalization>> Reconstructor::Impl::
     const Eigen::Isometry3d T_world_camera = T_world_reference * icp->T_ref_cur;
     if (icp->quality.iterations > 0 && judge_icp(icp->quality, plausible, nullptr))
       fits.push_back(T_world_camera.translation());
-    if (!icp->reliable || !icp->quality.converged) continue;
+    if (!icp->reliable() || !icp->quality.converged) continue;
     if (!best || icp->quality.residual_per_weight < best->icp.quality.residual_per_weight)
       best = Relocalization{*icp, T_world_camera};
   }
-  const double apart = 2 * config.relocalization_cell;
+  const double apart = 2 * config.relocalization.cell;
   if (best && std::any_of(fits.begin(), fits.end(), [&](const Eigen::Vector3d& p) {
         return (p - best->T_world_camera.translation()).norm() > apart;
       }))
@@ -154,7 +154,7 @@ Result<Reconstructor::Impl::Retracked> Reconstructor::Impl::retrack(const Pendin
     IMUFUSION_RETURN_IF_ERROR(update_reference(seed, scratch));
     auto icp = align(it->second, seed, MotionPrediction{}, true, scratch);
     if (!icp) return icp.error();
-    if (!icp->reliable || !icp->quality.converged) break;
+    if (!icp->reliable() || !icp->quality.converged) break;
     at.index = i;
     at.estimate = dead_reckoned;
     at.corrected = T_world_reference * icp->T_ref_cur;
@@ -166,17 +166,17 @@ Result<Reconstructor::Impl::Retracked> Reconstructor::Impl::retrack(const Pendin
 void Reconstructor::Impl::keep_depth(std::deque<std::pair<std::size_t, DepthImage>>& kept,
                                      std::size_t index, const DepthImage& depth) const {
   kept.emplace_back(index, depth);
-  if (kept.size() > static_cast<std::size_t>(config.retrack_lost_frames)) kept.pop_front();
+  if (kept.size() > static_cast<std::size_t>(config.smoothing.retrack_frames)) kept.pop_front();
 }
 
-// ReconstructorConfig::recovery_agreement_distance: whether this recovering frame's ICP settled
+// ReconstructorConfig::recovery.agreement_distance: whether this recovering frame's ICP settled
 // too far from its seed to agree with the frames counted before it.
 bool Reconstructor::Impl::disagrees_with_recovery(const IcpResult& icp, const FrameResult& r,
                                                   const Eigen::Isometry3d& T_world_seed,
                                                   const Eigen::Isometry3d& T_world_icp) const {
-  const double limit = config.recovery_agreement_distance;
+  const double limit = config.recovery.agreement_distance;
   return limit > 0 && machine.status() == TrackingStatus::kRecovering && pending.has_value() &&
-         r.imu.translation_predicted && icp.reliable && icp.quality.converged &&
+         r.imu.translation_predicted && icp.reliable() && icp.quality.converged &&
          (T_world_icp.translation() - T_world_seed.translation()).norm() > limit;
 }
 
@@ -203,7 +203,7 @@ Status Reconstructor::Impl::settle_lost_stretch(const PendingCorrection& c, Fram
   auto retracked = retrack(c);
   if (!retracked) return retracked.error();
   if (retracked->moved_reference) IMUFUSION_RETURN_IF_ERROR(update_reference(r.T_world_camera, r.timings));
-  if (config.retracked_frame_sigma > 0)
+  if (config.smoothing.retracked_frame_sigma > 0)
     correct_lost_stretch(c, retracked->placed);
   else
     correct_lost_stretch(retracked->correction, {});
@@ -215,7 +215,7 @@ Status Reconstructor::Impl::settle_lost_stretch(const PendingCorrection& c, Fram
 
 // See Reconstructor::trajectory().
 // `placed`: the frames the retrack placed (c.index - 1 and down, newest first), each measuring
-// the error there with ReconstructorConfig::retracked_frame_sigma; they keep their placed
+// the error there with ReconstructorConfig::smoothing.retracked_frame_sigma; they keep their placed
 // poses. Empty: `c` ends at the oldest frame placed.
 void Reconstructor::Impl::correct_lost_stretch(
     const PendingCorrection& c,
@@ -229,7 +229,7 @@ void Reconstructor::Impl::correct_lost_stretch(
   for (std::size_t i = c.anchor + 1; i < first_placed; ++i) {
     const StretchCorrection& correction = corrections[i - c.anchor - 1];
     Eigen::Isometry3d& T = trajectory[i].T_world_camera;
-    T.linear() = inertial::exp_so3(correction.rotation) * T.linear();
+    T.linear() = exp_so3(correction.rotation) * T.linear();
     T.translation() += correction.translation;
   }
 }
@@ -247,7 +247,7 @@ std::optional<Eigen::Vector3d> Reconstructor::Impl::stretch_end_velocity_error(
 // The error the stretch's end shows: truth (where ICP placed it) - estimate (dead reckoning).
 StretchCorrection Reconstructor::Impl::end_error(const PendingCorrection& c) {
   return {c.corrected.translation() - c.estimate.translation(),
-          inertial::log_so3(c.corrected.linear() * c.estimate.linear().transpose())};
+          log_so3(c.corrected.linear() * c.estimate.linear().transpose())};
 }
 
 // The frames strictly inside the stretch `c`, for drift_corrections (see correct_lost_stretch).
@@ -265,12 +265,12 @@ std::vector<StretchFrame> Reconstructor::Impl::stretch_frames(
       f.fixed = fixed->fixed;
       if (fixed->measured) {
         f.moved = fixed->moved;
-        f.moved_sigma = config.partial_move_sigma;
+        f.moved_sigma = config.smoothing.partial_move_sigma;
       }
     }
     if (i >= first_placed) {
       f.observed = placed[c.index - 1 - i].second.translation() - trajectory[i].T_world_camera.translation();
-      f.observed_sigma = config.retracked_frame_sigma;
+      f.observed_sigma = config.smoothing.retracked_frame_sigma;
     }
     frames.push_back(f);
   }
@@ -288,11 +288,11 @@ DriftPrior Reconstructor::Impl::drift_prior() const {
   // strongly correlated while the camera turned little) did worse on twelve wall scans
   // (bench/README.md).
   if (s.gravity_ready) {
-    const double scale2 = config.drift_gravity_sigma_scale * config.drift_gravity_sigma_scale;
+    const double scale2 = config.smoothing.gravity_sigma_scale * config.smoothing.gravity_sigma_scale;
     prior.gravity_bias_covariance.topLeftCorner<3, 3>().diagonal().setConstant(scale2 * s.gravity_sigma.squaredNorm() / 3);
     prior.gravity_bias_covariance.bottomRightCorner<3, 3>().diagonal().setConstant(scale2 * s.accel_bias_sigma.squaredNorm() / 3);
   }
-  prior.gyro_bias_sigma = config.drift_gyro_bias_sigma_scale * s.gyro_bias_sigma.norm() / std::sqrt(3.0);
+  prior.gyro_bias_sigma = config.smoothing.gyro_bias_sigma_scale * s.gyro_bias_sigma.norm() / std::sqrt(3.0);
   prior.gyro_noise_density = config.inertial.gyro_noise_density;
   return prior;
 }

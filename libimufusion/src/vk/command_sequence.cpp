@@ -1,4 +1,4 @@
-#include "gpu/command_sequence.hpp"
+#include "vk/command_sequence.hpp"
 
 #include <utility>
 

@@ -1,4 +1,4 @@
-#include "gpu/vk_error.hpp"
+#include "vk/vk_error.hpp"
 
 namespace imufusion::gpu {
 

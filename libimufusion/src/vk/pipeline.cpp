@@ -1,4 +1,4 @@
-#include "gpu/pipeline.hpp"
+#include "vk/pipeline.hpp"
 
 #include <array>
 #include <utility>

@@ -7,7 +7,7 @@
 #include <string>
 #include <utility>
 
-#include "gpu/reconstructor_impl.hpp"
+#include "scan/reconstructor_impl.hpp"
 #include "gpu/rgba.hpp"
 
 namespace imufusion {
@@ -130,11 +130,11 @@ IcpReliabilityThresholds Reconstructor::Impl::reliability(const DepthImage& dept
 }
 
 // The coarsest pyramid level ICP needs from an inertial seed (ReconstructorConfig::
-// imu_seed_reach_pixels): the finest level at which 3 sigma of the seed's image motion, at
+// imu.seed_reach_pixels): the finest level at which 3 sigma of the seed's image motion, at
 // the frame's median depth, is within the reach.
 int Reconstructor::Impl::seed_start_level(const MotionPrediction& prediction, const DepthImage& depth) const {
   const int coarsest = config.preprocess.levels - 1;
-  const double reach = config.imu_seed_reach_pixels;
+  const double reach = config.imu.seed_reach_pixels;
   std::vector<double> z;
   const double scale = 1.0 / depth.depth_scale;
   for (std::size_t i = 0; i < depth.data.size(); i += 7) {  // a sample is enough for a median
@@ -160,16 +160,16 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthImage& depth,
   const auto t0 = Clock::now();
   IcpConfig icp = config.icp;
   icp.keep_seed_in_degenerate_directions =
-      config.partial_icp_with_imu && prediction.rotation_from_imu && prediction.translation_predicted;
+      config.imu.partial_icp && prediction.rotation_from_imu && prediction.translation_predicted;
   icp.reliability = reliability(depth);
   // The prediction measures the motion only while tracking: a lost or recovering frame's seed
   // carries the whole drift of dead reckoning, not one frame's prediction error.
   const bool on_prediction = prediction.rotation_from_imu && prediction.translation_predicted && !settling;
   // The seed gate also needs a velocity settled by the accelerometer: one from one or two
   // tracked pairs carries their error into the seed.
-  icp.seed_gate = config.seed_gate_with_imu && icp.keep_seed_in_degenerate_directions && on_prediction &&
+  icp.seed_gate = config.imu.seed_gate && icp.keep_seed_in_degenerate_directions && on_prediction &&
                   prediction.translation_inertial;
-  icp.seed_prior = config.imu_prior && on_prediction;
+  icp.seed_prior = config.imu.prior && on_prediction;
   if (on_prediction) {  // the gate runs only on a prediction too
     icp.seed_sigma_rotation = prediction.rotation_sigma;
     icp.seed_sigma_translation = prediction.translation_sigma;
@@ -189,15 +189,15 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthImage& depth,
   // With the gyro's rotation but no predicted translation (the first tracked frames), the seed
   // is still within the finest level's reach while tracking (bench/README.md: room and fast
   // scans, 2 iterations per frame).
-  if (prediction.rotation_from_imu && !settling && config.imu_seed_reach_pixels > 0) {
+  if (prediction.rotation_from_imu && !settling && config.imu.seed_reach_pixels > 0) {
     const int start = on_prediction ? seed_start_level(prediction, depth) : 0;
     std::fill(icp.iterations_per_level.begin() + start + 1, icp.iterations_per_level.end(), 0);
   }
   // The budget and convergence thresholds of a frame that must settle onto the model.
   const auto settling_budget = [&](IcpConfig c) {
-    c.max_total_iterations = std::max(c.max_total_iterations, config.tracking.recovery_icp_iterations);
-    c.converged_rotation = std::max(c.converged_rotation, config.recovery_converged_rotation);
-    c.converged_translation = std::max(c.converged_translation, config.recovery_converged_translation);
+    c.max_total_iterations = std::max(c.max_total_iterations, config.recovery.icp_iterations);
+    c.converged_rotation = std::max(c.converged_rotation, config.recovery.converged_rotation);
+    c.converged_translation = std::max(c.converged_translation, config.recovery.converged_translation);
     return c;
   };
   if (settling) icp = settling_budget(icp);
@@ -208,7 +208,7 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthImage& depth,
   // settling budget from the same seed before it counts as lost: the tests judge an alignment,
   // not an unfinished one.
   const IcpConfig retry = settling_budget(icp);
-  if (result && !settling && !result->reliable && !result->partial && !result->quality.converged &&
+  if (result && !settling && !result->reliable() && !result->partial() && !result->quality.converged &&
       retry.max_total_iterations > icp.max_total_iterations) {
     const int spent = result->quality.iterations;
     result = run_icp(source, retry, T_ref_seed);
@@ -233,7 +233,7 @@ Result<TrackingDecision> Reconstructor::Impl::track_frame(double timestamp, cons
   const Eigen::Matrix3d R_world_reference = T_world_reference.linear();
   Eigen::Isometry3d T_world_icp = T_world_reference * icp->T_ref_cur;
   // Where the frame would be without a recovery: the partial pose, else dead reckoning.
-  const Eigen::Isometry3d T_world_estimate = icp->partial ? T_world_icp : T_world_seed;
+  const Eigen::Isometry3d T_world_estimate = icp->partial() ? T_world_icp : T_world_seed;
   const bool long_loss = this->long_loss(timestamp, r.imu);
   if (may_relocalize(*icp, r.imu, long_loss)) {
     auto found = relocalize(depth, T_world_estimate, timestamp, r.timings);
@@ -244,15 +244,15 @@ Result<TrackingDecision> Reconstructor::Impl::track_frame(double timestamp, cons
       r.relocalized = true;
     }
   }
-  if (long_loss && icp->reliable && !r.relocalized) {
-    icp->reliable = false;
+  if (long_loss && icp->reliable() && !r.relocalized) {
+    icp->verdict = IcpVerdict::kUnreliable;
     icp->reason = "after a long loss, not confirmed as the only fit by the relocalization search";
   }
   const bool was_lost = machine.status() == TrackingStatus::kLost;
-  const bool partial_may_fuse = timestamp - last_constrained_time <= config.max_partial_seconds;
-  if (icp->partial && !partial_may_fuse && !machine.recovering_or_lost()) {
+  const bool partial_may_fuse = timestamp - last_constrained_time <= config.imu.max_partial_seconds;
+  if (icp->partial() && !partial_may_fuse && !machine.recovering_or_lost()) {
     char limit[32];
-    std::snprintf(limit, sizeof limit, "%.3g", config.max_partial_seconds);
+    std::snprintf(limit, sizeof limit, "%.3g", config.imu.max_partial_seconds);
     icp->reason += std::string("; partial for more than ") + limit + " s";
   }
   r.icp_ran = true;
@@ -260,7 +260,7 @@ Result<TrackingDecision> Reconstructor::Impl::track_frame(double timestamp, cons
   r.recovery_restarted = disagrees_with_recovery(*icp, r, T_world_seed, T_world_icp);
   if (r.recovery_restarted) machine.restart_recovery();
   const TrackingDecision decision =
-      machine.step(icp->reliable, icp->quality.converged, icp->partial, partial_may_fuse);
+      machine.step(icp->reliable(), icp->quality.converged, icp->partial(), partial_may_fuse);
   // A frame accepted for its agreement with the IMU paired less than the reference asks for.
   if (decision.status == TrackingStatus::kTracking && decision.source == PoseSource::kIcp &&
       !icp->quality.agreed_with_seed) {
@@ -289,15 +289,15 @@ Result<TrackingDecision> Reconstructor::Impl::track_frame(double timestamp, cons
     pending = PendingCorrection{last_constrained_index, r.index, T_world_dead, r.T_world_camera,
                                 constrained_prior, partial_fixed, std::move(lost_depth)};
     // The velocity dead reckoning carried out of the loss, corrected by the drift it shows.
-    if (navigator && config.correct_velocity_after_loss) {
+    if (navigator && config.recovery.correct_velocity) {
       if (const auto dv = stretch_end_velocity_error(*pending, timestamp))
         navigator->correct_velocity(*dv);
     }
   }
   // Taken as exact only while dead reckoning is still within ICP's reach: from a seed further
   // off, partial ICP may settle on the wrong stretch of the model in the directions it fixes
-  // too, so there its move is a measurement to be checked (ReconstructorConfig::partial_move_sigma).
-  if (decision.source == PoseSource::kIcpPartial && (!long_loss || config.partial_move_sigma > 0))
+  // too, so there its move is a measurement to be checked (ReconstructorConfig::smoothing.partial_move_sigma).
+  if (decision.source == PoseSource::kIcpPartial && (!long_loss || config.smoothing.partial_move_sigma > 0))
     partial_fixed.push_back(
         {r.index, R_world_reference * icp->fixed_translation * R_world_reference.transpose(),
          T_world_icp.translation() - T_world_seed.translation(), long_loss});
@@ -314,11 +314,11 @@ void Reconstructor::Impl::update_stretch(const TrackingDecision& decision, doubl
     constrained_prior = drift_prior();
     partial_fixed.clear();
     lost_depth.clear();
-  } else if (config.retrack_lost_frames > 0) {
+  } else if (config.smoothing.retrack_frames > 0) {
     keep_depth(lost_depth, index, depth);
   }
   // A recovering frame rejoins the lost stretch if a later one disagrees with it (restart_pending).
-  if (decision.status == TrackingStatus::kRecovering && pending && config.retrack_lost_frames > 0)
+  if (decision.status == TrackingStatus::kRecovering && pending && config.smoothing.retrack_frames > 0)
     keep_depth(pending->depth, index, depth);
 }
 
@@ -394,7 +394,7 @@ Result<Reconstructor> Reconstructor::create(const ReconstructorConfig& config) {
   auto model = RaycastBuffers::create(m.context, pixels);
   if (!model) return model.error();
   m.model = std::move(*model);
-  if (config.use_imu) {
+  if (config.imu.enabled) {
     auto navigator = InertialNavigator::create(config.inertial);
     if (!navigator) return navigator.error();
     m.navigator.emplace(std::move(*navigator));

@@ -1,4 +1,4 @@
-#include "gpu/context.hpp"
+#include "vk/context.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -6,7 +6,7 @@
 #include <cstring>
 #include <iostream>
 
-#include "gpu/vk_error.hpp"
+#include "vk/vk_error.hpp"
 
 namespace imufusion {
 

@@ -1,10 +1,10 @@
-#include "gpu/buffer.hpp"
+#include "vk/buffer.hpp"
 
 #include <cstring>
 #include <string>
 #include <utility>
 
-#include "gpu/vk_error.hpp"
+#include "vk/vk_error.hpp"
 
 namespace imufusion::gpu {
 

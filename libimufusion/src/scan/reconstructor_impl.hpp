@@ -7,9 +7,10 @@
 #include <deque>
 #include <utility>
 
+#include "core/drift_model.hpp"
 #include "core/relocalizer.hpp"
-#include "gpu/command_sequence.hpp"
-#include "gpu/context.hpp"
+#include "vk/command_sequence.hpp"
+#include "vk/context.hpp"
 #include "gpu/icp_kernels.hpp"
 #include "gpu/preprocessor.hpp"
 #include "gpu/volume.hpp"
@@ -106,7 +107,7 @@ struct Reconstructor::Impl {
   std::vector<PartialFrame> partial_fixed;
   DriftPrior constrained_prior;  // the inertial estimates at the last fully constrained frame
   // The depth of the newest frames since the last fully constrained one (dead-reckoned or
-  // partial), at most config.retrack_lost_frames: a recovery places them backward.
+  // partial), at most config.smoothing.retrack_frames: a recovery places them backward.
   std::deque<std::pair<std::size_t, DepthImage>> lost_depth;
   Eigen::Isometry3d T_world_reference = Eigen::Isometry3d::Identity();  // pose of the raycast
   bool has_reference = false;
@@ -138,7 +139,7 @@ struct Reconstructor::Impl {
                          FrameResult& r);
 
   Status add_imu(std::span<const ImuSample> imu) {
-    if (!config.use_imu || imu.empty()) return {};
+    if (!config.imu.enabled || imu.empty()) return {};
     return navigator->add_samples(imu);
   }
 
