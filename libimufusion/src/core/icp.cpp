@@ -289,12 +289,64 @@ bool judge_icp(const IcpQuality& q, const IcpReliabilityThresholds& t, std::stri
   return why.empty();
 }
 
+namespace {
+
+// What the verdict on an alignment needs from its last steps.
+struct LastStep {
+  IcpStep step;                    // the last step (kept for the seed gate)
+  NormalEquations eq;              // level 0's last system, for the agreement with the seed
+  double scale = 0;                // its information scale (depth_information_scale)
+  Eigen::Matrix3d fixed = Eigen::Matrix3d::Zero();  // the last step's fixed translation directions
+  int finest_run = 0;              // the finest level that ran a step
+};
+
+// The quality figures of one Gauss-Newton step.
+void record_step(IcpQuality& q, const NormalEquations& eq, const IcpStep& step) {
+  q.inliers = eq.inliers;
+  q.weight_sum = eq.weight_sum;
+  q.inlier_fraction = eq.inlier_fraction();
+  q.pixel_fraction = eq.pixel_fraction();
+  q.condition = step.condition;
+  q.residual = step.residual;
+  q.residual_per_inlier = eq.inliers > 0 ? step.residual / double(eq.inliers) : 0;
+  q.residual_per_weight = eq.weight_sum > 0 ? step.residual / eq.weight_sum : 0;
+  q.constrained_directions = step.constrained_directions;
+}
+
+// The verdict on a finished alignment: the reliability test at level 0, the agreement with the
+// seed, a partial solve where only the condition fails, then the seed gate.
+void judge_result(IcpResult& result, const IcpConfig& config, const LastStep& last,
+                  const std::optional<Vector6d>& prior, bool seed_gate, const Eigen::Isometry3d& T_ref_cur_init) {
+  result.verdict = judge_icp(result.quality, config.reliability, &result.reason) ? IcpVerdict::kReliable : IcpVerdict::kUnreliable;
+  if (result.reliable() && last.finest_run != 0) {
+    result.verdict = IcpVerdict::kUnreliable;
+    result.reason = "level 0 was not reached";
+  }
+  if (prior && last.finest_run == 0 && last.scale > 0) {
+    result.quality.seed_chi2 = seed_chi2(last.eq, last.scale, *prior, update_towards(result.T_ref_cur, T_ref_cur_init));
+    if (result.quality.condition <= config.reliability.max_condition) accept_if_agreeing(config, result);
+  }
+  if (!result.reliable() && config.keep_seed_in_degenerate_directions && last.finest_run == 0 &&
+      result.quality.constrained_directions >= config.min_constrained_directions) {
+    // Partial: every test but the condition passes (judged with the condition let through).
+    IcpReliabilityThresholds t = config.reliability;
+    t.max_condition = std::numeric_limits<double>::infinity();
+    if (judge_icp(result.quality, t, nullptr)) {
+      result.verdict = IcpVerdict::kPartial;
+      result.fixed_translation = last.fixed;
+      result.reason += partial_reason(result.quality.constrained_directions);
+    }
+  }
+  if ((result.reliable() || result.partial()) && seed_gate) gate_against_seed(last.step, config, T_ref_cur_init, result);
+}
+
+}  // namespace
+
 Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
                           const Eigen::Isometry3d& T_ref_cur_init) {
   const int levels = source.levels();
   IMUFUSION_RETURN_IF_ERROR(config.validate(levels));
   IcpResult result;
-  Eigen::Matrix3d last_fixed = Eigen::Matrix3d::Zero();  // the last step's fixed translation directions
   if (!finite_pose(T_ref_cur_init)) {
     result.reason = "initial pose is not finite";
     return result;
@@ -303,14 +355,12 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
   int total = 0;
   int coarse = 0;
   bool any_step = false;
-  int finest_run = levels;
+  LastStep last;
+  last.finest_run = levels;
   // The seed gate judges the last step's singular directions: kept only when it may run.
   const bool seed_gate = config.seed_gate && config.keep_seed_in_degenerate_directions &&
                          (config.seed_sigma_rotation > 0 || config.seed_sigma_translation > 0);
   const std::optional<Vector6d> prior = seed_information(config);
-  IcpStep last_step;
-  NormalEquations last_eq;  // level 0's last system, for the agreement with the seed
-  double last_scale = 0;
   for (int level = levels - 1; level >= 0; --level) {
     // Keep one iteration for every finer level, so a small budget is spent at full resolution.
     const int budget = config.max_total_iterations - total - level;
@@ -328,25 +378,16 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
         const double scale = depth_information_scale(*eq, step, config, level);
         if (scale > 0 && config.seed_prior) add_seed_prior(step, *eq, scale, *prior, update_towards(T_ref_cur_init, T));
         if (level == 0) {
-          last_eq = *eq;
-          last_scale = scale;
+          last.eq = *eq;
+          last.scale = scale;
         }
       }
-      IcpQuality& q = result.quality;
-      q.inliers = eq->inliers;
-      q.weight_sum = eq->weight_sum;
-      q.inlier_fraction = eq->inlier_fraction();
-      q.pixel_fraction = eq->pixel_fraction();
-      q.condition = step.condition;
-      q.residual = step.residual;
-      q.residual_per_inlier = eq->inliers > 0 ? step.residual / double(eq->inliers) : 0;
-      q.residual_per_weight = eq->weight_sum > 0 ? step.residual / eq->weight_sum : 0;
-      q.constrained_directions = step.constrained_directions;
-      last_fixed = step.fixed_translation;
-      if (seed_gate) last_step = step;
+      record_step(result.quality, *eq, step);
+      last.fixed = step.fixed_translation;
+      if (seed_gate) last.step = step;
       ++total;
       if (level > 0) ++coarse;
-      finest_run = level;
+      last.finest_run = level;
       if (!step.solvable) {
         converged = false;
         break;
@@ -372,27 +413,7 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
     result.reason = result.quality.inliers == 0 ? "no correspondences" : "the ICP system is degenerate";
     return result;
   }
-  result.verdict = judge_icp(result.quality, config.reliability, &result.reason) ? IcpVerdict::kReliable : IcpVerdict::kUnreliable;
-  if (result.reliable() && finest_run != 0) {
-    result.verdict = IcpVerdict::kUnreliable;
-    result.reason = "level 0 was not reached";
-  }
-  if (prior && finest_run == 0 && last_scale > 0) {
-    result.quality.seed_chi2 = seed_chi2(last_eq, last_scale, *prior, update_towards(T, T_ref_cur_init));
-    if (result.quality.condition <= config.reliability.max_condition) accept_if_agreeing(config, result);
-  }
-  if (!result.reliable() && config.keep_seed_in_degenerate_directions && finest_run == 0 &&
-      result.quality.constrained_directions >= config.min_constrained_directions) {
-    // Partial: every test but the condition passes (judged with the condition let through).
-    IcpReliabilityThresholds t = config.reliability;
-    t.max_condition = std::numeric_limits<double>::infinity();
-    if (judge_icp(result.quality, t, nullptr)) {
-      result.verdict = IcpVerdict::kPartial;
-      result.fixed_translation = last_fixed;
-      result.reason += partial_reason(result.quality.constrained_directions);
-    }
-  }
-  if ((result.reliable() || result.partial()) && seed_gate) gate_against_seed(last_step, config, T_ref_cur_init, result);
+  judge_result(result, config, last, prior, seed_gate, T_ref_cur_init);
   return result;
 }
 

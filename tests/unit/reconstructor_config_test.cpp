@@ -1,0 +1,73 @@
+// ReconstructorConfig::validate: each setting out of range is refused, naming it.
+
+#include <gtest/gtest.h>
+
+#include <limits>
+#include <string>
+
+#include "imufusion/reconstructor.hpp"
+#include "imufusion/synth.hpp"
+
+namespace imufusion {
+namespace {
+
+TEST(ReconstructorConfig, RejectsSettingsOutOfRange) {
+  ReconstructorConfig c;
+  EXPECT_FALSE(c.validate().ok());  // no intrinsics
+  c.intrinsics = synth::default_intrinsics(160, 120);
+  EXPECT_TRUE(c.validate().ok());
+  c.tracking.recovery_frames = 0;
+  auto s = c.validate();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("recovery_frames"), std::string::npos);
+  c.tracking.recovery_frames = 3;
+  c.smoothing.gravity_sigma_scale = 0;
+  s = c.validate();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("drift sigma"), std::string::npos);
+  c.smoothing.gravity_sigma_scale = 2.3;
+  c.smoothing.gyro_bias_sigma_scale = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(c.validate().ok());
+  c.smoothing.gyro_bias_sigma_scale = 0.3;
+  EXPECT_TRUE(c.validate().ok());
+  c.icp.depth_noise.b = -0.001;
+  s = c.validate();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("depth noise"), std::string::npos);
+  c.icp.depth_noise.b = 0.0019;
+  EXPECT_TRUE(c.validate().ok());
+  c.smoothing.retrack_frames = -1;
+  s = c.validate();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("smoothing.retrack_frames"), std::string::npos);
+  c.smoothing.retrack_frames = 0;
+  c.smoothing.partial_move_sigma = -0.01;
+  s = c.validate();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("partial_move_sigma"), std::string::npos);
+  c.smoothing.partial_move_sigma = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(c.validate().ok());
+  c.smoothing.partial_move_sigma = 0;  // the moves not recorded
+  EXPECT_TRUE(c.validate().ok());
+  c.smoothing.retracked_frame_sigma = -0.003;
+  s = c.validate();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("retracked_frame_sigma"), std::string::npos);
+  c.smoothing.retracked_frame_sigma = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(c.validate().ok());
+  c.smoothing.retracked_frame_sigma = 0;  // the oldest frame placed is the end
+  EXPECT_TRUE(c.validate().ok());
+  c.recovery.agreement_distance = -0.05;
+  s = c.validate();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("recovery.agreement_distance"), std::string::npos);
+  c.recovery.agreement_distance = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(c.validate().ok());
+  c.recovery.agreement_distance = 0;  // no check
+  EXPECT_TRUE(c.validate().ok());
+  c.initial_pose.translation().x() = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(c.validate().ok());
+}
+
+}  // namespace
+}  // namespace imufusion
