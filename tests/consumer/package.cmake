@@ -1,10 +1,12 @@
-# The installed package as a user meets it. Run by CTest in one of two steps (-D STEP=...), with
+# The installed package as a user meets it. Run by CTest in one of three steps (-D STEP=...), with
 # -D SOURCE_DIR, BINARY_DIR, WORK_DIR, GENERATOR, CXX_COMPILER and LIBRARY_TYPE (the imufusion
 # target's TYPE: STATIC_LIBRARY or SHARED_LIBRARY):
 #   install   installs the built tree into WORK_DIR/prefix; the installed CMake files must hold
 #             no absolute path
 #   consumer  configures, builds and runs tests/consumer/project against the prefix; for a shared
 #             library with the dev packages of the private dependencies hidden from find_package
+#   example   builds examples/ against the prefix, scans a small synthetic room with
+#             scan_own_camera and checks its trajectory against ground truth and its mesh
 set(prefix ${WORK_DIR}/prefix)
 set(package_dir ${prefix}/lib/cmake/imufusion)
 
@@ -14,6 +16,7 @@ function(run)
     message(FATAL_ERROR "failed (${rc}): ${ARGN}\n${out}\n${err}")
   endif()
   message("${out}")
+  set(run_output "${out}" PARENT_SCOPE)
 endfunction()
 
 # Configures and builds the outside project in `source` into WORK_DIR/<name>.
@@ -49,6 +52,33 @@ elseif(STEP STREQUAL "consumer")
   endforeach()
   build_outside(consumer ${SOURCE_DIR}/tests/consumer/project ${hide})
   run(${WORK_DIR}/consumer/consumer)
+elseif(STEP STREQUAL "example")
+  build_outside(examples ${SOURCE_DIR}/examples)
+  set(sequence ${WORK_DIR}/room)
+  set(out ${WORK_DIR}/room_scan)
+  run(${prefix}/bin/imufusion-synth --scene room --seed 3 --frames 40 --size 160x120
+      --out ${sequence} --overwrite)
+  run(${WORK_DIR}/examples/scan_own_camera ${sequence} ${out})
+  if(NOT run_output MATCHES "^40 frames, 0 lost; mesh of ([0-9]+) vertices")
+    message(FATAL_ERROR "scan_own_camera lost frames or printed no summary")
+  endif()
+  set(vertices ${CMAKE_MATCH_1})
+  if(vertices LESS 2000)
+    message(FATAL_ERROR "scan_own_camera's mesh has only ${vertices} vertices")
+  endif()
+  file(READ ${out}/mesh.ply header LIMIT 200)
+  if(NOT header MATCHES "element vertex ${vertices}\n")
+    message(FATAL_ERROR "mesh.ply does not hold the ${vertices} vertices printed:\n${header}")
+  endif()
+  run(${prefix}/bin/imufusion-eval ${sequence}/groundtruth.txt ${out}/trajectory.txt --json)
+  string(JSON matched GET "${run_output}" matched)
+  string(JSON ate GET "${run_output}" ate_rmse)
+  if(NOT matched EQUAL 40 OR ate GREATER 0.015)
+    message(FATAL_ERROR "scan_own_camera's trajectory: ${matched} of 40 poses matched, "
+                        "ATE ${ate} m (at most 0.015 m)")
+  endif()
+  file(SIZE ${out}/preview.png preview_bytes)
+  message("scan_own_camera: ATE ${ate} m over ${matched} frames, preview ${preview_bytes} bytes")
 else()
   message(FATAL_ERROR "unknown STEP '${STEP}'")
 endif()
