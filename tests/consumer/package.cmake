@@ -8,7 +8,6 @@
 #   example   builds examples/ against the prefix, scans a small synthetic room with
 #             scan_own_camera and checks its trajectory against ground truth and its mesh
 set(prefix ${WORK_DIR}/prefix)
-set(package_dir ${prefix}/lib/cmake/imufusion)
 
 function(run)
   execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
@@ -32,7 +31,10 @@ if(STEP STREQUAL "install")
   file(REMOVE_RECURSE ${WORK_DIR})
   run(${CMAKE_COMMAND} --install ${BINARY_DIR} --prefix ${prefix} --component Unspecified)
   # A path in a target property starts a value or follows ';' or a generator expression's ':'.
-  file(GLOB package_files ${package_dir}/*.cmake)
+  file(GLOB_RECURSE package_files ${prefix}/imufusion*.cmake)
+  if(NOT package_files)
+    message(FATAL_ERROR "no imufusion*.cmake installed under ${prefix}")
+  endif()
   foreach(file ${package_files})
     file(STRINGS ${file} properties REGEX "^ *INTERFACE_|IMPORTED_")
     foreach(line ${properties})
