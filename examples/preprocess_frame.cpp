@@ -1,6 +1,6 @@
 // Reads the first frame of a sequence and preprocesses it on the GPU: the smallest program that
 // uses imufusion's sequence reader and depth preprocessing.
-//   example_preprocess_frame SEQUENCE_DIR
+//   preprocess_frame SEQUENCE_DIR
 
 #include <iostream>
 
@@ -9,7 +9,7 @@
 
 int main(int argc, char** argv) {
   if (argc != 2) {
-    std::cerr << "usage: example_preprocess_frame SEQUENCE_DIR\n";
+    std::cerr << "usage: preprocess_frame SEQUENCE_DIR\n";
     return 2;
   }
   auto reader = imufusion::SequenceReader::open(argv[1]);

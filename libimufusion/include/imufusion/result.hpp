@@ -1,8 +1,10 @@
 #pragma once
 // Errors that are errors (a bad file, no Vulkan device, a lost device) come back as values.
-// The library never calls exit() or abort(), and never throws across its public API.
+// The library never calls exit() or abort(), and throws only BadResultAccess: a caller that
+// reads the value of a Result holding an error (or the error of one holding a value).
 
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <variant>
@@ -35,7 +37,22 @@ struct Error {
   std::string describe() const;
 };
 
-/// Either a value or an Error. `Result<void>` is an alias of `Status`.
+/// Thrown on a Result accessed for what it does not hold (a bug in the caller, as
+/// std::bad_expected_access). what(): "value() of a Result holding an error: " plus the held
+/// error's describe(), so an unchecked Result that terminates the program still says why.
+class BadResultAccess : public std::logic_error {
+ public:
+  explicit BadResultAccess(const Error& held);  // value() of a Result holding `held`
+  BadResultAccess();                            // error() of a Result holding a value
+  /// The error the Result held (code kInternal and an empty message for error() on a value).
+  const Error& error() const noexcept { return error_; }
+
+ private:
+  Error error_;
+};
+
+/// Either a value or an Error. `Result<void>` is an alias of `Status`. value(), `*` and `->`
+/// on an error, and error() on a value, throw BadResultAccess.
 template <typename T>
 class [[nodiscard]] Result {
  public:
@@ -45,17 +62,26 @@ class [[nodiscard]] Result {
   bool ok() const { return std::holds_alternative<T>(data_); }
   explicit operator bool() const { return ok(); }
 
-  T& value() & { return std::get<T>(data_); }
-  const T& value() const& { return std::get<T>(data_); }
-  T&& value() && { return std::get<T>(std::move(data_)); }
+  T& value() & { return checked(data_); }
+  const T& value() const& { return checked(data_); }
+  T&& value() && { return std::move(checked(data_)); }
   T& operator*() & { return value(); }
   const T& operator*() const& { return value(); }
   T* operator->() { return &value(); }
   const T* operator->() const { return &value(); }
 
-  const Error& error() const { return std::get<Error>(data_); }
+  const Error& error() const {
+    if (const Error* held = std::get_if<Error>(&data_)) return *held;
+    throw BadResultAccess();
+  }
 
  private:
+  template <typename Data>
+  static auto& checked(Data& data) {
+    if (auto* held = std::get_if<T>(&data)) return *held;
+    throw BadResultAccess(std::get<Error>(data));
+  }
+
   std::variant<T, Error> data_;
 };
 

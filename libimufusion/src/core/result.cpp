@@ -24,4 +24,9 @@ std::string Error::describe() const {
   return text;
 }
 
+BadResultAccess::BadResultAccess(const Error& held)
+    : std::logic_error("value() of a Result holding an error: " + held.describe()), error_(held) {}
+
+BadResultAccess::BadResultAccess() : std::logic_error("error() of a Result holding a value") {}
+
 }  // namespace imufusion

@@ -1,18 +1,42 @@
-// A downstream program built against an installed imufusion: uses the public headers only.
+// A downstream program built against an installed imufusion: public headers only, and no C++
+// standard of its own (the package's target asks for the C++20 its headers need). Creates the
+// scanner and fuses one flat frame. Without a Vulkan device it passes, unless
+// IMUFUSION_REQUIRE_GPU is set (as in CI).
+#include <cstdint>
+#include <cstdlib>
 #include <iostream>
+#include <string>
+#include <vector>
 
-#include <imufusion/device.hpp>
-#include <imufusion/preprocess.hpp>
-#include <imufusion/types.hpp>
+#include <imufusion/reconstructor.hpp>
+#include <imufusion/sequence.hpp>
+#include <imufusion/synth.hpp>
+
+using namespace imufusion;
 
 int main() {
-  imufusion::Intrinsics k{525, 525, 319.5, 239.5, 640, 480};
-  const imufusion::Intrinsics half = k.at_level(1);
-  imufusion::PreprocessConfig config;
-  if (!config.validate().ok() || half.width != 320) return 1;
-  // Linking list_devices pulls in the Vulkan runtime; a machine without a device still passes.
-  auto devices = imufusion::list_devices();
-  std::cout << "consumer linked imufusion; devices: "
-            << (devices.ok() ? std::to_string(devices->size()) : devices.error().describe()) << "\n";
+  // An unchecked Result reports the error it holds.
+  try {
+    (void)Reconstructor::create({}).value();
+    return 1;
+  } catch (const BadResultAccess& e) {
+    if (std::string(e.what()).find("intrinsics size 0x0 is empty") == std::string::npos) return 1;
+  }
+
+  ReconstructorConfig config;
+  config.intrinsics = synth::default_intrinsics(160, 120);
+  auto scanner = Reconstructor::create(config);
+  if (!scanner) {
+    std::cout << "consumer linked imufusion; no scanner: " << scanner.error().describe() << "\n";
+    const char* required = std::getenv("IMUFUSION_REQUIRE_GPU");
+    const bool no_device = scanner.error().code == ErrorCode::kNoDevice;
+    return no_device && (required == nullptr || std::string(required) == "0") ? 0 : 1;
+  }
+  // A wall 1 m in front of the camera (depth in millimetres): the scan starts and fuses it.
+  const DepthImage depth{160, 120, 1000.0, std::vector<std::uint16_t>(160 * 120, 1000)};
+  auto frame = scanner->track_and_fuse(0.0, depth);
+  if (!frame || !frame->fused || scanner->allocated_blocks() == 0) return 1;
+  std::cout << "consumer fused a frame on " << scanner->device().name << " into "
+            << scanner->allocated_blocks() << " blocks\n";
   return 0;
 }
