@@ -40,6 +40,7 @@
 #include <map>
 #include <optional>
 #include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -88,11 +89,12 @@ struct Score {
 };
 
 // `parity` >= 0: own-generator samples of that seed parity only; `source` non-empty: that source.
+// `start` non-empty: pairs from that kind of start only.
 Score score(const std::vector<Sample>& samples, const IcpReliabilityThresholds& rule, int parity,
-            const std::string& source = "own") {
+            const std::string& source = "own", const std::string& start = "") {
   Score s;
   for (const Sample& x : samples) {
-    if (x.source != source || (parity >= 0 && x.seed % 2 != parity)) continue;
+    if (x.source != source || (parity >= 0 && x.seed % 2 != parity) || (!start.empty() && x.start != start)) continue;
     s.add(judge_icp(x.q, rule, nullptr), x.good);
   }
   return s;
@@ -100,8 +102,8 @@ Score score(const std::vector<Sample>& samples, const IcpReliabilityThresholds& 
 
 // The scanner's decision over one source's samples in time order: the residual test widened to
 // the frame's depth noise, the pairing tests lowered to what the source's earlier IMU-like pairs
-// that passed paired.
-Score score_adaptive(const std::vector<Sample>& samples, const std::string& source) {
+// that passed paired. `start` non-empty: counts the pairs from that kind of start only.
+Score score_adaptive(const std::vector<Sample>& samples, const std::string& source, const std::string& start = "") {
   Score s;
   PairingReference pairing;
   for (const Sample& x : samples) {
@@ -110,7 +112,7 @@ Score score_adaptive(const std::vector<Sample>& samples, const std::string& sour
     t.max_residual_per_weight = std::max(t.max_residual_per_weight, 2.0 * x.noise_variance);
     pairing.apply(t.min_inlier_fraction, t.min_pixel_fraction);
     const bool reliable = judge_icp(x.q, t, nullptr);
-    s.add(reliable, x.good);
+    if (start.empty() || x.start == start) s.add(reliable, x.good);
     if (reliable && x.start == "imu_like") pairing.add(x.q.inlier_fraction, x.q.pixel_fraction);
   }
   return s;
@@ -281,6 +283,47 @@ void write_csv(const std::string& path, const std::vector<Sample>& samples) {
         << s.q.iterations << ',' << s.noise_variance << '\n';
 }
 
+// Samples written by write_csv (--csv), to report on them again without measuring.
+bool read_csv(const std::string& path, std::vector<Sample>& samples) {
+  std::ifstream in(path);
+  std::string line;
+  if (!in || !std::getline(in, line)) {
+    std::cerr << path << ": cannot read\n";
+    return false;
+  }
+  int number = 1;
+  while (std::getline(in, line)) {
+    ++number;
+    std::vector<std::string> f;
+    std::stringstream fields(line);
+    for (std::string field; std::getline(fields, field, ',');) f.push_back(field);
+    if (f.size() != 17) {
+      std::cerr << path << ":" << number << ": expected 17 fields, got " << f.size() << "\n";
+      return false;
+    }
+    Sample s;
+    s.source = f[0];
+    s.scene = f[1];
+    s.seed = std::atoi(f[2].c_str());
+    s.start = f[3];
+    s.t = std::atof(f[4].c_str());
+    s.gap = std::atoi(f[5].c_str());
+    s.good = f[6] == "1";
+    s.err_t = std::atof(f[7].c_str());
+    s.err_r = std::atof(f[8].c_str());
+    s.q.condition = std::atof(f[9].c_str());
+    s.q.residual_per_weight = std::atof(f[10].c_str());
+    s.q.inliers = std::atoll(f[11].c_str());
+    s.q.inlier_fraction = std::atof(f[12].c_str());
+    s.q.pixel_fraction = std::atof(f[13].c_str());
+    s.q.weight_sum = std::atof(f[14].c_str());
+    s.q.iterations = std::atoi(f[15].c_str());
+    s.noise_variance = std::atof(f[16].c_str());
+    samples.push_back(s);
+  }
+  return true;
+}
+
 // The rule of highest recall (then precision) at `target_precision` on the own generator's odd
 // seeds, over a grid: kappa and r/sum(w) on log scales, both inlier fractions linear.
 std::optional<IcpReliabilityThresholds> choose_rule(const std::vector<Sample>& samples, double target_precision) {
@@ -351,31 +394,15 @@ void report(const std::vector<Sample>& samples, std::optional<IcpReliabilityThre
     std::printf(" %s: %d pairs, %d good\n", source.c_str(), n, good);
     print_score("fixed thresholds", score(samples, defaults, -1, source));
     print_score("scanner's decision", score_adaptive(samples, source));
+    print_score("fixed, IMU-like starts", score(samples, defaults, -1, source, "imu_like"));
+    print_score("scanner's, IMU-like starts", score_adaptive(samples, source, "imu_like"));
   }
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  int seeds = 8, pairs = 8, width = 320, height = 240, sequence_pairs = 60;
-  double target_precision = 0.99;
-  std::string csv;
-  std::vector<std::filesystem::path> sequences;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string a = argv[i], v = argv[i + 1];
-    if (a == "--seeds") seeds = std::atoi(v.c_str());
-    else if (a == "--pairs") pairs = std::atoi(v.c_str());
-    else if (a == "--precision") target_precision = std::atof(v.c_str());
-    else if (a == "--csv") csv = v;
-    else if (a == "--sequence") sequences.emplace_back(v);
-    else if (a == "--sequence-pairs") sequence_pairs = std::atoi(v.c_str());
-    else if (a == "--size" && std::sscanf(v.c_str(), "%dx%d", &width, &height) == 2) {}
-    else {
-      std::cerr << "usage: icp_calibration [--seeds N] [--pairs N] [--size WxH] [--precision P] [--csv FILE]\n"
-                   "                       [--sequence DIR]... [--sequence-pairs N]\n";
-      return 2;
-    }
-  }
+// Measures the own generator's pairs and each sequence's: the device's name and the samples.
+std::optional<std::pair<std::string, std::vector<Sample>>> measure(int seeds, int pairs, int width, int height,
+                                                                   int sequence_pairs,
+                                                                   const std::vector<std::filesystem::path>& sequences) {
   const Intrinsics k = synth::default_intrinsics(width, height);
   IcpConfig config;
   config.reliability = rule(std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(), 0.0, 0.0);
@@ -383,22 +410,58 @@ int main(int argc, char** argv) {
   auto tracker = IcpTracker::create(config, PreprocessConfig{}, k);
   if (!tracker) {
     std::cerr << tracker.error().describe() << "\n";
-    return 1;
+    return std::nullopt;
   }
   std::cerr << "device: " << tracker->device().name << "\n";
   std::vector<Sample> samples;
-  if (!own_generator_samples(*tracker, k, seeds, pairs, config, samples)) return 1;
-  std::vector<std::string> sources = {"own"};
-  for (const auto& dir : sequences) {
-    if (!sequence_samples(dir, sequence_pairs, config, samples)) return 1;
-    sources.push_back(samples.back().source);
+  if (!own_generator_samples(*tracker, k, seeds, pairs, config, samples)) return std::nullopt;
+  for (const auto& dir : sequences)
+    if (!sequence_samples(dir, sequence_pairs, config, samples)) return std::nullopt;
+  return std::make_pair(tracker->device().name, std::move(samples));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int seeds = 8, pairs = 8, width = 320, height = 240, sequence_pairs = 60;
+  double target_precision = 0.99;
+  std::string csv, from_csv;
+  std::vector<std::filesystem::path> sequences;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string a = argv[i], v = argv[i + 1];
+    if (a == "--seeds") seeds = std::atoi(v.c_str());
+    else if (a == "--pairs") pairs = std::atoi(v.c_str());
+    else if (a == "--precision") target_precision = std::atof(v.c_str());
+    else if (a == "--csv") csv = v;
+    else if (a == "--from-csv") from_csv = v;
+    else if (a == "--sequence") sequences.emplace_back(v);
+    else if (a == "--sequence-pairs") sequence_pairs = std::atoi(v.c_str());
+    else if (a == "--size" && std::sscanf(v.c_str(), "%dx%d", &width, &height) == 2) {}
+    else {
+      std::cerr << "usage: icp_calibration [--seeds N] [--pairs N] [--size WxH] [--precision P] [--csv FILE]\n"
+                   "                       [--sequence DIR]... [--sequence-pairs N] [--from-csv FILE]\n";
+      return 2;
+    }
   }
+  std::vector<Sample> samples;
+  std::string device = "(from " + from_csv + ")";
+  if (from_csv.empty()) {
+    auto measured = measure(seeds, pairs, width, height, sequence_pairs, sequences);
+    if (!measured) return 1;
+    device = measured->first;
+    samples = std::move(measured->second);
+  } else if (!read_csv(from_csv, samples)) {
+    return 1;
+  }
+  std::vector<std::string> sources;
+  for (const Sample& s : samples)
+    if (std::find(sources.begin(), sources.end(), s.source) == sources.end()) sources.push_back(s.source);
   if (!csv.empty()) write_csv(csv, samples);
 
   int good = 0;
   for (const Sample& s : samples) good += s.good ? 1 : 0;
   std::printf("device %s, own generator at %dx%d, %zu pairs (%d good: within 1 cm / 1 deg, and constrained)\n",
-              tracker->device().name.c_str(), width, height, samples.size(), good);
+              device.c_str(), width, height, samples.size(), good);
   for (const char* scene : {"room", "wall", "fast"})
     for (const char* start : {"identity", "imu_like", "wrong"}) {
       int n = 0, g = 0;
