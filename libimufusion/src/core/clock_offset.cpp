@@ -128,6 +128,63 @@ std::optional<double> peak_lag(const std::vector<double>& ncc) {
   return best + shift;
 }
 
+// Population standard deviation of `values` (at least one).
+double standard_deviation(const std::vector<double>& values) {
+  const auto n = static_cast<double>(values.size());
+  double mean = 0.0;
+  for (double value : values) mean += value;
+  mean /= n;
+  double ss = 0.0;
+  for (double value : values) ss += (value - mean) * (value - mean);
+  return std::sqrt(ss / n);
+}
+
+// The normalized cross-correlation of camera and gyro rates at each lag of the search, over all
+// intervals and over consecutive sub-windows of them.
+struct LagCorrelations {
+  std::vector<double> all;                   // per lag
+  std::vector<std::vector<double>> windows;  // per sub-window, per lag
+};
+
+// Correlations at the 2 * steps + 1 offsets centre + (i - steps) * lag_step (seconds), over
+// `blocks` sub-windows too: the spread of the sub-windows' peaks measures how well the data pin
+// the offset down. gyro_rates(offset, rates) fills the gyro rate of each interval at an offset.
+template <typename GyroRates>
+LagCorrelations correlate_lags(const std::vector<double>& camera_rates, double centre, int steps,
+                               double lag_step, int blocks, const GyroRates& gyro_rates) {
+  const int lags = 2 * steps + 1;
+  LagCorrelations ncc{std::vector<double>(lags, -1.0),
+                      std::vector<std::vector<double>>(blocks, std::vector<double>(lags, -1.0))};
+  const std::size_t count = camera_rates.size();
+  std::vector<double> rates(count);
+  const auto block_begin = [&](int b) { return count * b / blocks; };
+  for (int i = 0; i < lags; ++i) {
+    gyro_rates(centre + (i - steps) * lag_step, rates);
+    ncc.all[i] = normalized_correlation(camera_rates, rates, 0, count);
+    for (int b = 0; b < blocks; ++b) {
+      ncc.windows[b][i] =
+          normalized_correlation(camera_rates, rates, block_begin(b), block_begin(b + 1));
+    }
+  }
+  return ncc;
+}
+
+// Standard error (in lags) of `peak` from the sub-windows' peaks, as of a mean of independent
+// estimates. A sub-window without a positive interior maximum counts at its best lag (on the
+// border of the search for a slope): it pins nothing down.
+double peak_standard_error(const std::vector<std::vector<double>>& windows, double peak) {
+  const auto blocks = static_cast<int>(windows.size());
+  double spread = 0.0;
+  for (const std::vector<double>& ncc : windows) {
+    const std::optional<double> block_peak = peak_lag(ncc);
+    const double lag =
+        block_peak ? *block_peak
+                   : static_cast<double>(std::max_element(ncc.begin(), ncc.end()) - ncc.begin());
+    spread += (lag - peak) * (lag - peak);
+  }
+  return std::sqrt(spread / (blocks * (blocks - 1.0)));
+}
+
 }  // namespace
 
 ClockOffsetEstimate ClockOffsetEstimator::estimate() const {
@@ -154,58 +211,25 @@ ClockOffsetEstimate ClockOffsetEstimator::estimate() const {
     }
   }
   if (used.size() < options_.min_intervals) return result;
+  std::vector<double> camera_rates(used.size());
+  for (std::size_t k = 0; k < used.size(); ++k) camera_rates[k] = used[k]->rate;
+  if (standard_deviation(camera_rates) < options_.min_rate_std) return result;
 
-  const auto n = static_cast<double>(used.size());
-  double camera_mean = 0.0;
-  for (const Interval* interval : used) camera_mean += interval->rate;
-  camera_mean /= n;
-  double camera_ss = 0.0;
-  for (const Interval* interval : used) {
-    camera_ss += (interval->rate - camera_mean) * (interval->rate - camera_mean);
-  }
-  if (std::sqrt(camera_ss / n) < options_.min_rate_std) return result;
-
-  // The correlation over all intervals, and over `blocks` consecutive sub-windows of them: the
-  // spread of the sub-windows' peaks measures how well the data pin the offset down.
   const int blocks = std::max(2, options_.blocks);
   const int steps = std::max(1, static_cast<int>(std::lround(radius / options_.lag_step)));
-  const int lags = 2 * steps + 1;
-  std::vector<double> ncc(lags, -1.0);
-  std::vector<std::vector<double>> block_ncc(blocks, std::vector<double>(lags, -1.0));
-  std::vector<double> gyro_rates(used.size()), camera_rates(used.size());
-  for (std::size_t k = 0; k < used.size(); ++k) camera_rates[k] = used[k]->rate;
-  const auto block_begin = [&](int b) { return used.size() * b / blocks; };
-  for (int i = 0; i < lags; ++i) {
-    const double offset = *centre + (i - steps) * options_.lag_step;
+  const auto gyro_rates = [&](double offset, std::vector<double>& rates) {
     for (std::size_t k = 0; k < used.size(); ++k) {
-      gyro_rates[k] = mean_rate(used[k]->begin - offset, used[k]->end - offset);
+      rates[k] = mean_rate(used[k]->begin - offset, used[k]->end - offset);
     }
-    ncc[i] = normalized_correlation(camera_rates, gyro_rates, 0, used.size());
-    for (int b = 0; b < blocks; ++b) {
-      block_ncc[b][i] =
-          normalized_correlation(camera_rates, gyro_rates, block_begin(b), block_begin(b + 1));
-    }
-  }
-  const std::optional<double> peak = peak_lag(ncc);
+  };
+  const LagCorrelations ncc =
+      correlate_lags(camera_rates, *centre, steps, options_.lag_step, blocks, gyro_rates);
+  const std::optional<double> peak = peak_lag(ncc.all);
   // A peak on the border of the search is a slope, not a maximum: keep the arrival estimate.
   if (!peak) return result;
-  const double peak_value = *std::max_element(ncc.begin(), ncc.end());
+  const double standard_error = peak_standard_error(ncc.windows, *peak) * options_.lag_step;
 
-  // Standard error of the peak from the sub-windows, as of a mean of independent estimates. A
-  // sub-window without a positive interior maximum counts at its best lag (on the border of
-  // the search for a slope): it pins nothing down.
-  double spread = 0.0;
-  for (int b = 0; b < blocks; ++b) {
-    const std::optional<double> block_peak = peak_lag(block_ncc[b]);
-    const double lag = block_peak ? *block_peak
-                                  : static_cast<double>(std::max_element(block_ncc[b].begin(),
-                                                                         block_ncc[b].end()) -
-                                                        block_ncc[b].begin());
-    spread += (lag - *peak) * (lag - *peak);
-  }
-  const double standard_error = std::sqrt(spread / (blocks * (blocks - 1.0))) * options_.lag_step;
-
-  result.correlation = peak_value;
+  result.correlation = *std::max_element(ncc.all.begin(), ncc.all.end());
   result.standard_error = standard_error;
   result.intervals = used.size();
   result.correlation_offset = *centre + (*peak - steps) * options_.lag_step;

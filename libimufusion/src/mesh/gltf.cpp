@@ -230,8 +230,10 @@ class AccessorView {
   int components_ = 0;
 };
 
-Status append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& primitive,
-                        const std::string& what, Mesh& mesh, bool& all_normals, bool& all_colors) {
+// Appends the primitive's POSITION (VEC3) to mesh.vertices; returns how many.
+Result<std::size_t> append_positions(const tinygltf::Model& model,
+                                     const tinygltf::Primitive& primitive, const std::string& what,
+                                     Mesh& mesh) {
   const auto position_it = primitive.attributes.find("POSITION");
   if (position_it == primitive.attributes.end()) {
     return make_error(ErrorCode::kParseError, what + ": a primitive has no POSITION");
@@ -241,50 +243,55 @@ Status append_primitive(const tinygltf::Model& model, const tinygltf::Primitive&
   if (positions->components() != 3) {
     return make_error(ErrorCode::kParseError, what + ": POSITION is not VEC3");
   }
-  const std::size_t base = mesh.vertices.size();
   const std::size_t n = positions->count();
   for (std::size_t v = 0; v < n; ++v) {
     mesh.vertices.emplace_back(static_cast<float>(positions->at(v, 0)),
                                static_cast<float>(positions->at(v, 1)),
                                static_cast<float>(positions->at(v, 2)));
   }
-  mesh.normals.resize(base + n, Eigen::Vector3f::UnitZ());
-  mesh.colors.resize(base + n, {0, 0, 0});
+  return n;
+}
 
-  const auto normal_it = primitive.attributes.find("NORMAL");
-  if (normal_it == primitive.attributes.end()) {
-    all_normals = false;
-  } else {
-    auto normals = AccessorView::open(model, normal_it->second, what);
-    if (!normals.ok()) return normals.error();
-    if (normals->components() != 3 || normals->count() != n) {
-      return make_error(ErrorCode::kParseError, what + ": NORMAL does not match POSITION");
-    }
-    for (std::size_t v = 0; v < n; ++v) {
-      for (int a = 0; a < 3; ++a) {
-        mesh.normals[base + v][a] = static_cast<float>(normals->at(v, a));
-      }
+// The NORMAL accessor `index` (VEC3, n of them) into mesh.normals from `base` on.
+Status read_normals(const tinygltf::Model& model, int index, const std::string& what,
+                    std::size_t base, std::size_t n, Mesh& mesh) {
+  auto normals = AccessorView::open(model, index, what);
+  if (!normals.ok()) return normals.error();
+  if (normals->components() != 3 || normals->count() != n) {
+    return make_error(ErrorCode::kParseError, what + ": NORMAL does not match POSITION");
+  }
+  for (std::size_t v = 0; v < n; ++v) {
+    for (int a = 0; a < 3; ++a) {
+      mesh.normals[base + v][a] = static_cast<float>(normals->at(v, a));
     }
   }
-  const auto color_it = primitive.attributes.find("COLOR_0");
-  if (color_it == primitive.attributes.end()) {
-    all_colors = false;
-  } else {
-    auto colors = AccessorView::open(model, color_it->second, what);
-    if (!colors.ok()) return colors.error();
-    if (colors->components() < 3 || colors->count() != n) {
-      return make_error(ErrorCode::kParseError, what + ": COLOR_0 does not match POSITION");
-    }
-    for (std::size_t v = 0; v < n; ++v) {
-      for (int c = 0; c < 3; ++c) {
-        const double raw = colors->at(v, c);
-        const double value = std::isfinite(raw) ? std::clamp(raw, 0.0, 1.0) * 255.0 : 0.0;
-        mesh.colors[base + v][static_cast<std::size_t>(c)] =
-            static_cast<std::uint8_t>(std::lround(value));
-      }
+  return {};
+}
+
+// The COLOR_0 accessor `index` (RGB or RGBA in [0, 1], n of them) into mesh.colors from `base`
+// on, as bytes; alpha is dropped, non-finite values read as 0.
+Status read_colors(const tinygltf::Model& model, int index, const std::string& what,
+                   std::size_t base, std::size_t n, Mesh& mesh) {
+  auto colors = AccessorView::open(model, index, what);
+  if (!colors.ok()) return colors.error();
+  if (colors->components() < 3 || colors->count() != n) {
+    return make_error(ErrorCode::kParseError, what + ": COLOR_0 does not match POSITION");
+  }
+  for (std::size_t v = 0; v < n; ++v) {
+    for (int c = 0; c < 3; ++c) {
+      const double raw = colors->at(v, c);
+      const double value = std::isfinite(raw) ? std::clamp(raw, 0.0, 1.0) * 255.0 : 0.0;
+      mesh.colors[base + v][static_cast<std::size_t>(c)] =
+          static_cast<std::uint8_t>(std::lround(value));
     }
   }
+  return {};
+}
 
+// The primitive's vertex indices (unsigned integers); 0 .. n-1 when it has none.
+Result<std::vector<std::uint32_t>> read_indices(const tinygltf::Model& model,
+                                                const tinygltf::Primitive& primitive,
+                                                const std::string& what, std::size_t n) {
   std::vector<std::uint32_t> indices;
   if (primitive.indices >= 0) {
     auto view = AccessorView::open(model, primitive.indices, what);
@@ -305,6 +312,12 @@ Status append_primitive(const tinygltf::Model& model, const tinygltf::Primitive&
     indices.resize(n);
     for (std::size_t i = 0; i < n; ++i) indices[i] = static_cast<std::uint32_t>(i);
   }
+  return indices;
+}
+
+// Appends the triangles of `indices` (triples, each below n) to the mesh, offset by `base`.
+Status append_triangles(const std::vector<std::uint32_t>& indices, const std::string& what,
+                        std::size_t base, std::size_t n, Mesh& mesh) {
   if (indices.size() % 3 != 0) {
     return make_error(ErrorCode::kParseError,
                       what + ": " + std::to_string(indices.size()) + " indices are not triangles");
@@ -322,6 +335,33 @@ Status append_primitive(const tinygltf::Model& model, const tinygltf::Primitive&
     mesh.triangles.push_back(tri);
   }
   return {};
+}
+
+// Appends a triangle primitive to the mesh. all_normals / all_colors turn false when it lacks
+// NORMAL / COLOR_0; its vertices hold +z and black until the caller replaces them.
+Status append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& primitive,
+                        const std::string& what, Mesh& mesh, bool& all_normals, bool& all_colors) {
+  const std::size_t base = mesh.vertices.size();
+  auto n = append_positions(model, primitive, what, mesh);
+  if (!n.ok()) return n.error();
+  mesh.normals.resize(base + *n, Eigen::Vector3f::UnitZ());
+  mesh.colors.resize(base + *n, {0, 0, 0});
+
+  const auto normal_it = primitive.attributes.find("NORMAL");
+  if (normal_it == primitive.attributes.end()) {
+    all_normals = false;
+  } else {
+    IMUFUSION_RETURN_IF_ERROR(read_normals(model, normal_it->second, what, base, *n, mesh));
+  }
+  const auto color_it = primitive.attributes.find("COLOR_0");
+  if (color_it == primitive.attributes.end()) {
+    all_colors = false;
+  } else {
+    IMUFUSION_RETURN_IF_ERROR(read_colors(model, color_it->second, what, base, *n, mesh));
+  }
+  auto indices = read_indices(model, primitive, what, *n);
+  if (!indices.ok()) return indices.error();
+  return append_triangles(*indices, what, base, *n, mesh);
 }
 
 }  // namespace

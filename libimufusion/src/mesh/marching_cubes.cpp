@@ -86,10 +86,11 @@ struct BlockMesh {
   std::vector<std::array<std::uint32_t, 3>> triangles;  // local vertex indices
 };
 
+using BlockIndex = std::unordered_map<std::uint64_t, std::size_t>;  // block key -> position
+
 class Mesher {
  public:
-  Mesher(const HostVolume& volume, const MeshOptions& options,
-         const std::unordered_map<std::uint64_t, std::size_t>& index)
+  Mesher(const HostVolume& volume, const MeshOptions& options, const BlockIndex& index)
       : volume_(volume), options_(options), index_(index) {}
 
   void mesh_block(const VolumeBlock& block, BlockMesh& out) {
@@ -249,7 +250,7 @@ class Mesher {
 
   const HostVolume& volume_;
   const MeshOptions& options_;
-  const std::unordered_map<std::uint64_t, std::size_t>& index_;
+  const BlockIndex& index_;
   std::array<const VolumeBlock*, 27> neighbours_{};
   std::vector<LocalVoxel> local_ = std::vector<LocalVoxel>(kGatherVoxels);
   // Vertex index per (axis, lower end) of the edges whose lower end lies in 0 .. kBlockSide.
@@ -257,9 +258,8 @@ class Mesher {
       std::vector<int>(3 * (kBlockSide + 1) * (kBlockSide + 1) * (kBlockSide + 1));
 };
 
-}  // namespace
-
-Result<Mesh> extract_mesh(const HostVolume& volume, const MeshOptions& options) {
+// extract_mesh's arguments: a positive, finite voxel size and a positive min_weight.
+Status check_options(const HostVolume& volume, const MeshOptions& options) {
   if (!(volume.voxel_size > 0.0f) || !std::isfinite(volume.voxel_size)) {
     return make_error(
         ErrorCode::kInvalidArgument,
@@ -270,26 +270,37 @@ Result<Mesh> extract_mesh(const HostVolume& volume, const MeshOptions& options) 
                       "extract_mesh: min_weight " + std::to_string(options.min_weight) +
                           " must be positive (weight 0 marks unobserved voxels)");
   }
-  std::unordered_map<std::uint64_t, std::size_t> index;
+  return {};
+}
+
+// "extract_mesh: block (x, y, z)", the start of a message about one block.
+std::string block_message(const Eigen::Vector3i& c) {
+  return "extract_mesh: block (" + std::to_string(c.x()) + ", " + std::to_string(c.y()) + ", " +
+         std::to_string(c.z()) + ")";
+}
+
+// The blocks by key; an error when a block lies outside the lattice or appears twice.
+Result<BlockIndex> index_blocks(const HostVolume& volume) {
+  BlockIndex index;
   index.reserve(volume.blocks.size() * 2);
   for (std::size_t b = 0; b < volume.blocks.size(); ++b) {
     const Eigen::Vector3i& c = volume.blocks[b].coord;
     if (!mesh::block_in_range(c)) {
       return make_error(ErrorCode::kInvalidArgument,
-                        "extract_mesh: block (" + std::to_string(c.x()) + ", " +
-                            std::to_string(c.y()) + ", " + std::to_string(c.z()) +
-                            ") is outside the supported lattice (|coordinate| < " +
+                        block_message(c) + " is outside the supported lattice (|coordinate| < " +
                             std::to_string(mesh::kMaxBlockCoord) + ")");
     }
     if (!index.emplace(mesh::block_key(c), b).second) {
       return make_error(ErrorCode::kInvalidArgument,
-                        "extract_mesh: block (" + std::to_string(c.x()) + ", " +
-                            std::to_string(c.y()) + ", " + std::to_string(c.z()) +
-                            ") appears twice in the snapshot");
+                        block_message(c) + " appears twice in the snapshot");
     }
   }
+  return index;
+}
 
-  // Blocks in coordinate order, so that the welded output does not depend on the snapshot order.
+// Positions of the blocks in (z, y, x) coordinate order, so that the welded output does not
+// depend on the snapshot order.
+std::vector<std::size_t> coordinate_order(const HostVolume& volume) {
   std::vector<std::size_t> order(volume.blocks.size());
   for (std::size_t b = 0; b < order.size(); ++b) order[b] = b;
   std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
@@ -297,7 +308,12 @@ Result<Mesh> extract_mesh(const HostVolume& volume, const MeshOptions& options) 
     const Eigen::Vector3i& cb = volume.blocks[b].coord;
     return std::tie(ca.z(), ca.y(), ca.x()) < std::tie(cb.z(), cb.y(), cb.x());
   });
+  return order;
+}
 
+// The mesh of each block, in `order`, meshed by options.threads threads (0: one per core).
+std::vector<BlockMesh> mesh_blocks(const HostVolume& volume, const MeshOptions& options,
+                                   const BlockIndex& index, const std::vector<std::size_t>& order) {
   std::vector<BlockMesh> parts(order.size());
   unsigned threads = options.threads > 0 ? static_cast<unsigned>(options.threads)
                                          : std::max(1u, std::thread::hardware_concurrency());
@@ -314,7 +330,12 @@ Result<Mesh> extract_mesh(const HostVolume& volume, const MeshOptions& options) 
   for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work);
   work();
   for (auto& thread : pool) thread.join();
+  return parts;
+}
 
+// One mesh from the parts, in their order: a vertex on a lattice edge that several parts share
+// is kept once. Releases the parts as it goes.
+Mesh weld(std::vector<BlockMesh>& parts, bool colors) {
   Mesh result;
   std::size_t vertex_bound = 0, shared_bound = 0, triangle_count = 0;
   for (const BlockMesh& part : parts) {
@@ -324,7 +345,7 @@ Result<Mesh> extract_mesh(const HostVolume& volume, const MeshOptions& options) 
   }
   result.vertices.reserve(vertex_bound);
   result.normals.reserve(vertex_bound);
-  if (options.colors) result.colors.reserve(vertex_bound);
+  if (colors) result.colors.reserve(vertex_bound);
   result.triangles.reserve(triangle_count);
   // Only edges on block faces can appear in several parts; the others are new vertices.
   EdgeVertexMap welded(shared_bound);
@@ -338,7 +359,7 @@ Result<Mesh> extract_mesh(const HostVolume& volume, const MeshOptions& options) 
       if (remap[v] == next_index) {
         result.vertices.push_back(part.vertices[v]);
         result.normals.push_back(part.normals[v]);
-        if (options.colors) result.colors.push_back(part.colors[v]);
+        if (colors) result.colors.push_back(part.colors[v]);
       }
     }
     for (const auto& tri : part.triangles) {
@@ -350,6 +371,16 @@ Result<Mesh> extract_mesh(const HostVolume& volume, const MeshOptions& options) 
   result.normals.shrink_to_fit();
   result.colors.shrink_to_fit();
   return result;
+}
+
+}  // namespace
+
+Result<Mesh> extract_mesh(const HostVolume& volume, const MeshOptions& options) {
+  IMUFUSION_RETURN_IF_ERROR(check_options(volume, options));
+  auto index = index_blocks(volume);
+  if (!index.ok()) return index.error();
+  std::vector<BlockMesh> parts = mesh_blocks(volume, options, *index, coordinate_order(volume));
+  return weld(parts, options.colors);
 }
 
 }  // namespace imufusion

@@ -130,6 +130,268 @@ std::uint8_t to_color_byte(double value, PlyType type) {
   return static_cast<std::uint8_t>(std::lround(std::clamp(value, 0.0, 255.0)));
 }
 
+// A malformed file: "<file>: <message>".
+Error parse_error(const std::string& file, const std::string& message) {
+  return make_error(ErrorCode::kParseError, file + ": " + message);
+}
+
+// The header's elements in file order, and where the binary body starts (bytes into the file).
+struct PlyHeader {
+  std::vector<Element> elements;
+  std::size_t body_offset = 0;
+};
+
+// The header line starting at `offset` (without its '\n' or "\r\n"), moving `offset` past it;
+// nullopt when no '\n' follows.
+std::optional<std::string> next_line(const std::vector<std::uint8_t>& bytes, std::size_t& offset) {
+  const auto begin = bytes.begin() + static_cast<std::ptrdiff_t>(offset);
+  const auto end = std::find(begin, bytes.end(), std::uint8_t{'\n'});
+  if (end == bytes.end()) return std::nullopt;
+  std::string line(begin, end);
+  offset = static_cast<std::size_t>(end - bytes.begin()) + 1;
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  return line;
+}
+
+// The words after "format": only binary_little_endian is read. `where` ("line N: ") prefixes
+// the message.
+Status check_format(std::istringstream& words, const std::string& file, const std::string& where) {
+  std::string format;
+  words >> format;
+  if (format != "binary_little_endian") {
+    return make_error(ErrorCode::kUnsupported,
+                      file + ": " + where + "format '" + format +
+                          "' is not supported (only binary_little_endian)");
+  }
+  return {};
+}
+
+// The words after "element": "<name> <count>".
+Result<Element> parse_element(std::istringstream& words, const std::string& file,
+                              const std::string& where) {
+  Element element;
+  long long count = -1;
+  words >> element.name >> count;
+  if (!words || count < 0) return parse_error(file, where + "malformed element line");
+  element.count = static_cast<std::size_t>(count);
+  return element;
+}
+
+// The words after "property": "<type> <name>" or "list <count type> <item type> <name>".
+Result<Property> parse_property(std::istringstream& words, const std::string& file,
+                                const std::string& where) {
+  Property property;
+  std::string type;
+  words >> type;
+  if (type == "list") {
+    std::string count_type, item_type;
+    words >> count_type >> item_type >> property.name;
+    const auto ct = parse_type(count_type), it = parse_type(item_type);
+    if (!ct || !it) return parse_error(file, where + "unknown list type");
+    property.is_list = true;
+    property.count_type = *ct;
+    property.type = *it;
+  } else {
+    words >> property.name;
+    const auto t = parse_type(type);
+    if (!t) return parse_error(file, where + "unknown property type '" + type + "'");
+    property.type = *t;
+  }
+  if (property.name.empty()) return parse_error(file, where + "property without a name");
+  return property;
+}
+
+// The text header: the "ply" magic, then lines up to "end_header".
+Result<PlyHeader> parse_header(const std::vector<std::uint8_t>& bytes, const std::string& file) {
+  PlyHeader header;
+  int line_number = 0;
+  bool format_seen = false;
+  for (;;) {
+    const std::optional<std::string> line = next_line(bytes, header.body_offset);
+    if (!line) return parse_error(file, "no end_header line");
+    ++line_number;
+    const std::string where = "line " + std::to_string(line_number) + ": ";
+    std::istringstream words(*line);
+    std::string keyword;
+    words >> keyword;
+    if (line_number == 1) {
+      if (keyword != "ply") return parse_error(file, "not a PLY file (no 'ply' magic)");
+      continue;
+    }
+    if (keyword == "end_header") break;
+    if (keyword == "comment" || keyword == "obj_info" || keyword.empty()) continue;
+    if (keyword == "format") {
+      IMUFUSION_RETURN_IF_ERROR(check_format(words, file, where));
+      format_seen = true;
+    } else if (keyword == "element") {
+      auto element = parse_element(words, file, where);
+      if (!element.ok()) return element.error();
+      header.elements.push_back(*element);
+    } else if (keyword == "property") {
+      if (header.elements.empty()) return parse_error(file, where + "property before any element");
+      auto property = parse_property(words, file, where);
+      if (!property.ok()) return property.error();
+      header.elements.back().properties.push_back(*property);
+    } else {
+      return parse_error(file, where + "unknown header keyword '" + keyword + "'");
+    }
+  }
+  if (!format_seen) return parse_error(file, "no format line");
+  return header;
+}
+
+// Columns of a vertex element's attributes among its properties (-1: absent).
+struct VertexColumns {
+  std::array<int, 3> position, normal, color;
+
+  bool has_position() const { return position[0] >= 0 && position[1] >= 0 && position[2] >= 0; }
+  bool has_normals() const { return normal[0] >= 0 && normal[1] >= 0 && normal[2] >= 0; }
+  bool has_colors() const { return color[0] >= 0 && color[1] >= 0 && color[2] >= 0; }
+};
+
+VertexColumns vertex_columns(const Element& element) {
+  auto column = [&](const char* property) {
+    for (std::size_t p = 0; p < element.properties.size(); ++p) {
+      if (element.properties[p].name == property) return static_cast<int>(p);
+    }
+    return -1;
+  };
+  return {{column("x"), column("y"), column("z")},
+          {column("nx"), column("ny"), column("nz")},
+          {column("red"), column("green"), column("blue")}};
+}
+
+// Reads the body's elements, in header order, into a mesh: "vertex" (x y z, optional nx ny nz
+// and red green blue) and the polygons of "face" (fanned into triangles); other elements and
+// properties are read past.
+class BodyReader {
+ public:
+  BodyReader(const std::vector<std::uint8_t>& bytes, std::size_t body_offset,
+             const std::string& file)
+      : reader_(bytes, body_offset), body_bytes_(bytes.size() - body_offset), file_(file) {}
+
+  Status read_element(const Element& element) {
+    // Each item takes at least its scalars and list counts: refuse counts the file cannot hold
+    // before allocating for them.
+    std::size_t min_item_size = 0;
+    for (const Property& property : element.properties) {
+      min_item_size += type_size(property.is_list ? property.count_type : property.type);
+    }
+    if (min_item_size > 0 && element.count > body_bytes_ / min_item_size) {
+      return parse_error(file_, "header declares " + std::to_string(element.count) + " " +
+                                    element.name + " items, more than the file holds (truncated)");
+    }
+    const bool is_vertex = element.name == "vertex";
+    const VertexColumns columns = vertex_columns(element);
+    if (is_vertex) {
+      if (!columns.has_position()) return parse_error(file_, "vertex element lacks x, y or z");
+      has_normals_ = columns.has_normals();
+      mesh_.vertices.resize(element.count);
+      mesh_.normals.assign(element.count, Eigen::Vector3f::UnitZ());
+      if (columns.has_colors()) mesh_.colors.resize(element.count);
+    }
+    values_.assign(element.properties.size(), 0.0);
+    for (std::size_t item = 0; item < element.count; ++item) {
+      IMUFUSION_RETURN_IF_ERROR(read_item(element, item));
+      if (is_vertex) IMUFUSION_RETURN_IF_ERROR(store_vertex(element, columns, item));
+    }
+    return {};
+  }
+
+  // The mesh once every element is read: its triangles checked against the vertices, and
+  // normals computed from the triangles when the file has none.
+  Result<Mesh> finish() {
+    for (std::size_t t = 0; t < mesh_.triangles.size(); ++t) {
+      for (std::uint32_t v : mesh_.triangles[t]) {
+        if (v >= mesh_.vertices.size()) {
+          return parse_error(file_, "triangle " + std::to_string(t) + " uses vertex " +
+                                        std::to_string(v) + " of " +
+                                        std::to_string(mesh_.vertices.size()));
+        }
+      }
+    }
+    if (!has_normals_) mesh::compute_vertex_normals(mesh_);
+    return std::move(mesh_);
+  }
+
+ private:
+  Error truncated(const Element& element, std::size_t item) const {
+    return parse_error(file_, "truncated in " + element.name + " " + std::to_string(item));
+  }
+
+  // One item's properties: scalars into values_, lists into polygon_ (a face's vertex indices
+  // become triangles).
+  Status read_item(const Element& element, std::size_t item) {
+    for (std::size_t p = 0; p < element.properties.size(); ++p) {
+      const Property& property = element.properties[p];
+      if (!property.is_list) {
+        if (!reader_.read(property.type, values_[p])) return truncated(element, item);
+        continue;
+      }
+      IMUFUSION_RETURN_IF_ERROR(read_list(element, property, item));
+      if (element.name == "face" &&
+          (property.name == "vertex_indices" || property.name == "vertex_index")) {
+        if (polygon_.size() < 3) {
+          return parse_error(file_, "face " + std::to_string(item) + " has " +
+                                        std::to_string(polygon_.size()) + " vertices");
+        }
+        for (std::size_t k = 1; k + 1 < polygon_.size(); ++k) {
+          mesh_.triangles.push_back({polygon_[0], polygon_[k], polygon_[k + 1]});
+        }
+      }
+    }
+    return {};
+  }
+
+  // A list property's count and entries into polygon_, each a vertex index in uint32 range.
+  Status read_list(const Element& element, const Property& property, std::size_t item) {
+    double count = 0;
+    if (!reader_.read(property.count_type, count) || count < 0) return truncated(element, item);
+    polygon_.clear();
+    for (std::size_t k = 0; k < static_cast<std::size_t>(count); ++k) {
+      double index = 0;
+      if (!reader_.read(property.type, index)) return truncated(element, item);
+      if (!(index >= 0.0 && index < 4294967296.0)) {
+        return parse_error(file_, element.name + " " + std::to_string(item) + " has vertex index " +
+                                      std::to_string(index));
+      }
+      polygon_.push_back(static_cast<std::uint32_t>(index));
+    }
+    return {};
+  }
+
+  // Vertex `item` from values_: its position (finite in float), normal (entries beyond 1e6 read
+  // as 0) and colour (bytes).
+  Status store_vertex(const Element& element, const VertexColumns& columns, std::size_t item) {
+    for (int a = 0; a < 3; ++a) {
+      const double x = values_[static_cast<std::size_t>(columns.position[a])];
+      if (!(std::abs(x) <= std::numeric_limits<float>::max())) {
+        return parse_error(
+            file_, "vertex " + std::to_string(item) + " has coordinate " + std::to_string(x));
+      }
+      mesh_.vertices[item][a] = static_cast<float>(x);
+      if (has_normals_) {
+        const double n = values_[static_cast<std::size_t>(columns.normal[a])];
+        mesh_.normals[item][a] = std::abs(n) <= 1e6 ? static_cast<float>(n) : 0.0f;
+      }
+      if (!mesh_.colors.empty()) {
+        const auto c = static_cast<std::size_t>(columns.color[a]);
+        mesh_.colors[item][static_cast<std::size_t>(a)] =
+            to_color_byte(values_[c], element.properties[c].type);
+      }
+    }
+    return {};
+  }
+
+  Reader reader_;
+  std::size_t body_bytes_;  // from the end of the header to the end of the file
+  const std::string& file_;
+  Mesh mesh_;
+  bool has_normals_ = false;            // the last vertex element has nx, ny and nz
+  std::vector<double> values_;          // the current item's scalar properties, by column
+  std::vector<std::uint32_t> polygon_;  // the current item's last list
+};
+
 }  // namespace
 
 Status write_ply(const std::filesystem::path& path, const Mesh& mesh) {
@@ -169,180 +431,13 @@ Result<Mesh> read_ply(const std::filesystem::path& path) {
   auto bytes = io::read_file_bytes(path);
   if (!bytes.ok()) return bytes.error();
   const std::string name = path.string();
-  auto parse_error = [&](const std::string& message) {
-    return make_error(ErrorCode::kParseError, name + ": " + message);
-  };
-
-  // Header: text lines up to "end_header".
-  std::vector<Element> elements;
-  std::size_t offset = 0;
-  int line_number = 0;
-  bool format_seen = false;
-  for (;;) {
-    const auto begin = bytes->begin() + static_cast<std::ptrdiff_t>(offset);
-    const auto end = std::find(begin, bytes->end(), std::uint8_t{'\n'});
-    if (end == bytes->end()) return parse_error("no end_header line");
-    std::string line(begin, end);
-    offset = static_cast<std::size_t>(end - bytes->begin()) + 1;
-    ++line_number;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    const std::string where = "line " + std::to_string(line_number) + ": ";
-    std::istringstream words(line);
-    std::string keyword;
-    words >> keyword;
-    if (line_number == 1) {
-      if (keyword != "ply") return parse_error("not a PLY file (no 'ply' magic)");
-      continue;
-    }
-    if (keyword == "end_header") break;
-    if (keyword == "comment" || keyword == "obj_info" || keyword.empty()) continue;
-    if (keyword == "format") {
-      std::string format;
-      words >> format;
-      if (format != "binary_little_endian") {
-        return make_error(ErrorCode::kUnsupported,
-                          name + ": " + where + "format '" + format +
-                              "' is not supported (only binary_little_endian)");
-      }
-      format_seen = true;
-    } else if (keyword == "element") {
-      Element element;
-      long long count = -1;
-      words >> element.name >> count;
-      if (!words || count < 0) return parse_error(where + "malformed element line");
-      element.count = static_cast<std::size_t>(count);
-      elements.push_back(element);
-    } else if (keyword == "property") {
-      if (elements.empty()) return parse_error(where + "property before any element");
-      Property property;
-      std::string type;
-      words >> type;
-      if (type == "list") {
-        std::string count_type, item_type;
-        words >> count_type >> item_type >> property.name;
-        const auto ct = parse_type(count_type), it = parse_type(item_type);
-        if (!ct || !it) return parse_error(where + "unknown list type");
-        property.is_list = true;
-        property.count_type = *ct;
-        property.type = *it;
-      } else {
-        words >> property.name;
-        const auto t = parse_type(type);
-        if (!t) return parse_error(where + "unknown property type '" + type + "'");
-        property.type = *t;
-      }
-      if (property.name.empty()) return parse_error(where + "property without a name");
-      elements.back().properties.push_back(property);
-    } else {
-      return parse_error(where + "unknown header keyword '" + keyword + "'");
-    }
+  auto header = parse_header(*bytes, name);
+  if (!header.ok()) return header.error();
+  BodyReader body(*bytes, header->body_offset, name);
+  for (const Element& element : header->elements) {
+    IMUFUSION_RETURN_IF_ERROR(body.read_element(element));
   }
-  if (!format_seen) return parse_error("no format line");
-
-  Mesh mesh;
-  bool has_normals = false;
-  Reader reader(*bytes, offset);
-  for (const Element& element : elements) {
-    const bool is_vertex = element.name == "vertex";
-    const bool is_face = element.name == "face";
-    // Column of each vertex attribute among the element's properties (-1: absent).
-    auto column = [&](const char* property) {
-      for (std::size_t p = 0; p < element.properties.size(); ++p) {
-        if (element.properties[p].name == property) return static_cast<int>(p);
-      }
-      return -1;
-    };
-    std::array<int, 3> position{column("x"), column("y"), column("z")};
-    std::array<int, 3> normal{column("nx"), column("ny"), column("nz")};
-    std::array<int, 3> color{column("red"), column("green"), column("blue")};
-    // Each item takes at least its scalars and list counts: refuse counts the file cannot hold
-    // before allocating for them.
-    std::size_t min_item_size = 0;
-    for (const Property& property : element.properties) {
-      min_item_size += type_size(property.is_list ? property.count_type : property.type);
-    }
-    if (min_item_size > 0 && element.count > (bytes->size() - offset) / min_item_size) {
-      return parse_error("header declares " + std::to_string(element.count) + " " + element.name +
-                         " items, more than the file holds (truncated)");
-    }
-    if (is_vertex) {
-      if (position[0] < 0 || position[1] < 0 || position[2] < 0) {
-        return parse_error("vertex element lacks x, y or z");
-      }
-      has_normals = normal[0] >= 0 && normal[1] >= 0 && normal[2] >= 0;
-      const bool has_colors = color[0] >= 0 && color[1] >= 0 && color[2] >= 0;
-      mesh.vertices.resize(element.count);
-      mesh.normals.assign(element.count, Eigen::Vector3f::UnitZ());
-      if (has_colors) mesh.colors.resize(element.count);
-    }
-    std::vector<double> values(element.properties.size());
-    std::vector<std::uint32_t> polygon;
-    for (std::size_t item = 0; item < element.count; ++item) {
-      for (std::size_t p = 0; p < element.properties.size(); ++p) {
-        const Property& property = element.properties[p];
-        if (!property.is_list) {
-          if (!reader.read(property.type, values[p])) {
-            return parse_error("truncated in " + element.name + " " + std::to_string(item));
-          }
-          continue;
-        }
-        double count = 0;
-        if (!reader.read(property.count_type, count) || count < 0) {
-          return parse_error("truncated in " + element.name + " " + std::to_string(item));
-        }
-        polygon.clear();
-        for (std::size_t k = 0; k < static_cast<std::size_t>(count); ++k) {
-          double index = 0;
-          if (!reader.read(property.type, index)) {
-            return parse_error("truncated in " + element.name + " " + std::to_string(item));
-          }
-          if (!(index >= 0.0 && index < 4294967296.0)) {
-            return parse_error(element.name + " " + std::to_string(item) + " has vertex index " +
-                               std::to_string(index));
-          }
-          polygon.push_back(static_cast<std::uint32_t>(index));
-        }
-        if (is_face && (property.name == "vertex_indices" || property.name == "vertex_index")) {
-          if (polygon.size() < 3) {
-            return parse_error("face " + std::to_string(item) + " has " +
-                               std::to_string(polygon.size()) + " vertices");
-          }
-          for (std::size_t k = 1; k + 1 < polygon.size(); ++k) {
-            mesh.triangles.push_back({polygon[0], polygon[k], polygon[k + 1]});
-          }
-        }
-      }
-      if (is_vertex) {
-        for (int a = 0; a < 3; ++a) {
-          const double x = values[static_cast<std::size_t>(position[a])];
-          if (!(std::abs(x) <= std::numeric_limits<float>::max())) {
-            return parse_error("vertex " + std::to_string(item) + " has coordinate " +
-                               std::to_string(x));
-          }
-          mesh.vertices[item][a] = static_cast<float>(x);
-          if (has_normals) {
-            const double n = values[static_cast<std::size_t>(normal[a])];
-            mesh.normals[item][a] = std::abs(n) <= 1e6 ? static_cast<float>(n) : 0.0f;
-          }
-          if (!mesh.colors.empty()) {
-            const auto c = static_cast<std::size_t>(color[a]);
-            mesh.colors[item][static_cast<std::size_t>(a)] =
-                to_color_byte(values[c], element.properties[c].type);
-          }
-        }
-      }
-    }
-  }
-  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
-    for (std::uint32_t v : mesh.triangles[t]) {
-      if (v >= mesh.vertices.size()) {
-        return parse_error("triangle " + std::to_string(t) + " uses vertex " + std::to_string(v) +
-                           " of " + std::to_string(mesh.vertices.size()));
-      }
-    }
-  }
-  if (!has_normals) mesh::compute_vertex_normals(mesh);
-  return mesh;
+  return body.finish();
 }
 
 }  // namespace imufusion

@@ -31,6 +31,46 @@ std::uint8_t to_unorm8(double x) {
   return static_cast<std::uint8_t>(std::lround(std::clamp(x, 0.0, 1.0) * 255.0));
 }
 
+// Raycast images of the camera's size with every pixel a miss (all zero).
+RaycastImages blank_raycast_images(const Intrinsics& k) {
+  RaycastImages out;
+  const auto pixels = static_cast<std::size_t>(k.width) * static_cast<std::size_t>(k.height);
+  out.vertices.width = out.normals.width = out.shaded.width = out.color.width = k.width;
+  out.vertices.height = out.normals.height = out.shaded.height = out.color.height = k.height;
+  out.vertices.data.assign(pixels, Eigen::Vector4f::Zero());
+  out.normals.data.assign(pixels, Eigen::Vector4f::Zero());
+  out.shaded.data.assign(3 * pixels, 0);
+  out.color.data.assign(3 * pixels, 0);
+  return out;
+}
+
+// Distance (metres) along the ray from `origin` along unit `dir` to where it leaves block b
+// (side `length`, metres) through a far face; infinity when dir has no component off zero.
+double block_exit(const Eigen::Vector3i& b, const Eigen::Vector3d& origin,
+                  const Eigen::Vector3d& dir, double length) {
+  double t_exit = std::numeric_limits<double>::infinity();
+  for (int axis = 0; axis < 3; ++axis) {
+    if (std::abs(dir[axis]) < 1e-12) continue;
+    const double face = (b[axis] + (dir[axis] >= 0.0 ? 1 : 0)) * length;
+    t_exit = std::min(t_exit, (face - origin[axis]) / dir[axis]);
+  }
+  return t_exit;
+}
+
+// Pixel `index` of a hit: camera-frame vertex (metres) and unit normal, Lambert shading seen
+// from the camera with 0.15 ambient, and the fused colour (0..1).
+void write_hit(RaycastImages& out, std::size_t index, const Eigen::Vector3d& vertex,
+               const Eigen::Vector3d& normal, const Eigen::Vector3d& rgb) {
+  out.vertices.data[index] << vertex.cast<float>(), 1.0f;
+  out.normals.data[index] << normal.cast<float>(), 1.0f;
+  const double lambert = std::max(0.0, normal.dot(-vertex.normalized()));
+  const std::uint8_t shade = to_unorm8(0.15 + 0.85 * lambert);
+  for (std::size_t c = 0; c < 3; ++c) {
+    out.shaded.data[3 * index + c] = shade;
+    out.color.data[3 * index + c] = to_unorm8(rgb[static_cast<Eigen::Index>(c)]);
+  }
+}
+
 }  // namespace
 
 std::size_t BlockCoordHash::operator()(const Eigen::Vector3i& b) const {
@@ -197,19 +237,68 @@ bool CpuVolume::trilinear(const Eigen::Vector3d& g, double* tsdf, Eigen::Vector3
   return true;
 }
 
+double CpuVolume::march_ray(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t,
+                            double t_far) const {
+  const double length = block_length(voxel_size_);
+  double previous_tsdf = 0.0, previous_t = 0.0;
+  bool have_previous = false;
+  while (t < t_far) {
+    const Eigen::Vector3d g = (origin + t * dir) / voxel_size_;  // lattice coordinates
+    const Eigen::Vector3i b = floor_div(g, kBlockSide);
+    if (!contains(b)) {
+      // Free or unknown space: leave the block through the face the ray exits by.
+      have_previous = false;
+      t = std::max(t, block_exit(b, origin, dir, length)) +
+          VOLUME_RAYCAST_EXIT_MARGIN * voxel_size_;
+      continue;
+    }
+    const StoredVoxel* nearest = voxel(floor_div(g + Eigen::Vector3d::Constant(0.5), 1.0));
+    const bool observed = nearest != nullptr && nearest->weight != 0;
+    double tsdf = observed ? nearest->tsdf / kTsdfScale : 0.0;
+    if (observed && tsdf * truncation_ >= VOLUME_RAYCAST_COARSE_VOXELS * voxel_size_) {
+      // Far in front of the surface: the sample lies within sqrt(3)/2 voxel of the nearest
+      // lattice point, so one voxel less than the usual step stays in front of it.
+      have_previous = false;
+      t += 0.8 * tsdf * truncation_ - voxel_size_;
+      continue;
+    }
+    if (!observed || !trilinear(g, &tsdf, nullptr)) {
+      have_previous = false;
+      t += (observed ? 0.5 : 1.0) * voxel_size_;
+      continue;
+    }
+    if (have_previous && previous_tsdf > 0.0 && tsdf <= 0.0) {
+      // Linear interpolation of the zero crossing between the two samples.
+      return previous_t + (t - previous_t) * previous_tsdf / (previous_tsdf - tsdf);
+    }
+    previous_tsdf = tsdf;
+    previous_t = t;
+    have_previous = true;
+    t += std::max(0.8 * tsdf * truncation_, 0.5 * voxel_size_);
+  }
+  return -1.0;
+}
+
+bool CpuVolume::surface_at(const Eigen::Vector3d& hit, Eigen::Vector3d* gradient,
+                           Eigen::Vector3d* rgb) const {
+  // Central differences of the trilinear TSDF, one voxel apart.
+  const Eigen::Vector3d g_hit = hit / voxel_size_;
+  double tsdf_hit = 0.0;
+  bool ok = true;
+  for (int axis = 0; axis < 3 && ok; ++axis) {
+    double plus = 0.0, minus = 0.0;
+    ok = trilinear(g_hit + Eigen::Vector3d::Unit(axis), &plus, nullptr) &&
+         trilinear(g_hit - Eigen::Vector3d::Unit(axis), &minus, nullptr);
+    (*gradient)[axis] = plus - minus;
+  }
+  return ok && gradient->norm() > 0.0 && trilinear(g_hit, &tsdf_hit, rgb);
+}
+
 RaycastImages CpuVolume::raycast(const Intrinsics& k, const Eigen::Isometry3d& T_world_camera,
                                  double near_depth, double far_depth) const {
-  RaycastImages out;
-  const auto pixels = static_cast<std::size_t>(k.width) * static_cast<std::size_t>(k.height);
-  out.vertices.width = out.normals.width = out.shaded.width = out.color.width = k.width;
-  out.vertices.height = out.normals.height = out.shaded.height = out.color.height = k.height;
-  out.vertices.data.assign(pixels, Eigen::Vector4f::Zero());
-  out.normals.data.assign(pixels, Eigen::Vector4f::Zero());
-  out.shaded.data.assign(3 * pixels, 0);
-  out.color.data.assign(3 * pixels, 0);
+  RaycastImages out = blank_raycast_images(k);
   const Eigen::Matrix3d R = T_world_camera.linear();
   const Eigen::Vector3d origin = T_world_camera.translation();
-  const double length = block_length(voxel_size_);
   for (int v = 0; v < k.height; ++v) {
     for (int u = 0; u < k.width; ++u) {
       const std::size_t index = static_cast<std::size_t>(v) * static_cast<std::size_t>(k.width) +
@@ -217,74 +306,14 @@ RaycastImages CpuVolume::raycast(const Intrinsics& k, const Eigen::Isometry3d& T
       const Eigen::Vector3d ray_c((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0);
       const double ray_scale = ray_c.norm();  // metres along the ray per metre of z-depth
       const Eigen::Vector3d dir = R * (ray_c / ray_scale);
-      const double t_far = far_depth * ray_scale;
-      double t = near_depth * ray_scale;
-      double previous_tsdf = 0.0, previous_t = 0.0, hit_t = -1.0;
-      bool have_previous = false;
-      while (t < t_far) {
-        const Eigen::Vector3d g = (origin + t * dir) / voxel_size_;  // lattice coordinates
-        const Eigen::Vector3i b = floor_div(g, kBlockSide);
-        if (!contains(b)) {
-          // Free or unknown space: leave the block through the face the ray exits by.
-          have_previous = false;
-          double t_exit = std::numeric_limits<double>::infinity();
-          for (int axis = 0; axis < 3; ++axis) {
-            if (std::abs(dir[axis]) < 1e-12) continue;
-            const double face = (b[axis] + (dir[axis] >= 0.0 ? 1 : 0)) * length;
-            t_exit = std::min(t_exit, (face - origin[axis]) / dir[axis]);
-          }
-          t = std::max(t, t_exit) + VOLUME_RAYCAST_EXIT_MARGIN * voxel_size_;
-          continue;
-        }
-        const StoredVoxel* nearest = voxel(floor_div(g + Eigen::Vector3d::Constant(0.5), 1.0));
-        const bool observed = nearest != nullptr && nearest->weight != 0;
-        double tsdf = observed ? nearest->tsdf / kTsdfScale : 0.0;
-        if (observed && tsdf * truncation_ >= VOLUME_RAYCAST_COARSE_VOXELS * voxel_size_) {
-          // Far in front of the surface: the sample lies within sqrt(3)/2 voxel of the nearest
-          // lattice point, so one voxel less than the usual step stays in front of it.
-          have_previous = false;
-          t += 0.8 * tsdf * truncation_ - voxel_size_;
-          continue;
-        }
-        if (!observed || !trilinear(g, &tsdf, nullptr)) {
-          have_previous = false;
-          t += (observed ? 0.5 : 1.0) * voxel_size_;
-          continue;
-        }
-        if (have_previous && previous_tsdf > 0.0 && tsdf <= 0.0) {
-          // Linear interpolation of the zero crossing between the two samples.
-          hit_t = previous_t + (t - previous_t) * previous_tsdf / (previous_tsdf - tsdf);
-          break;
-        }
-        previous_tsdf = tsdf;
-        previous_t = t;
-        have_previous = true;
-        t += std::max(0.8 * tsdf * truncation_, 0.5 * voxel_size_);
-      }
+      const double hit_t = march_ray(origin, dir, near_depth * ray_scale, far_depth * ray_scale);
       if (hit_t < 0.0) continue;
       const Eigen::Vector3d hit = origin + hit_t * dir;
-      // Normal: central differences of the trilinear TSDF, one voxel apart.
-      const Eigen::Vector3d g_hit = hit / voxel_size_;
       Eigen::Vector3d gradient, rgb_hit;
-      double tsdf_hit = 0.0;
-      bool ok = true;
-      for (int axis = 0; axis < 3 && ok; ++axis) {
-        double plus = 0.0, minus = 0.0;
-        ok = trilinear(g_hit + Eigen::Vector3d::Unit(axis), &plus, nullptr) &&
-             trilinear(g_hit - Eigen::Vector3d::Unit(axis), &minus, nullptr);
-        gradient[axis] = plus - minus;
-      }
-      if (!ok || !(gradient.norm() > 0.0) || !trilinear(g_hit, &tsdf_hit, &rgb_hit)) continue;
+      if (!surface_at(hit, &gradient, &rgb_hit)) continue;
       const Eigen::Vector3d vertex = R.transpose() * (hit - origin);
       const Eigen::Vector3d normal = R.transpose() * gradient.normalized();
-      out.vertices.data[index] << vertex.cast<float>(), 1.0f;
-      out.normals.data[index] << normal.cast<float>(), 1.0f;
-      const double lambert = std::max(0.0, normal.dot(-vertex.normalized()));
-      const std::uint8_t shade = to_unorm8(0.15 + 0.85 * lambert);
-      for (std::size_t c = 0; c < 3; ++c) {
-        out.shaded.data[3 * index + c] = shade;
-        out.color.data[3 * index + c] = to_unorm8(rgb_hit[static_cast<Eigen::Index>(c)]);
-      }
+      write_hit(out, index, vertex, normal, rgb_hit);
     }
   }
   return out;

@@ -98,6 +98,14 @@ class CpuVolume {
   /// coordinates g (world point / voxel_size); false when one of the 8 surrounding lattice
   /// points is unobserved.
   bool trilinear(const Eigen::Vector3d& g, double* tsdf, Eigen::Vector3d* rgb) const;
+  /// Distance (metres) along the ray from `origin` along unit `dir` (world frame) to its first
+  /// crossing from positive to non-positive TSDF, marched from t to t_far; -1 when none.
+  double march_ray(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double t,
+                   double t_far) const;
+  /// The TSDF gradient (world frame, unnormalized) and colour (0..1) at world point `hit`;
+  /// false where a sample is unobserved or the gradient vanishes.
+  bool surface_at(const Eigen::Vector3d& hit, Eigen::Vector3d* gradient,
+                  Eigen::Vector3d* rgb) const;
 
   double voxel_size_;
   double truncation_;

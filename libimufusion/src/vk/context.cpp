@@ -206,6 +206,103 @@ Result<std::vector<DeviceInfo>> list_devices_of(VkInstance instance) {
   return infos;
 }
 
+namespace {
+
+// Whether to run with the validation layer: asked for (options.validation or
+// IMUFUSION_VALIDATION) and installed. Asked for but missing: a warning on stderr.
+bool use_validation(const DeviceOptions& options) {
+  const bool want_validation = options.validation || env_flag("IMUFUSION_VALIDATION");
+  const bool validation = want_validation && layer_available(kValidationLayer);
+  if (want_validation && !validation) {
+    std::cerr << "imufusion: validation requested but " << kValidationLayer
+              << " is not installed (Debian: vulkan-validationlayers); running without it\n";
+  }
+  return validation;
+}
+
+// A messenger passing validation warnings and errors to `callback` with `user`; left null when
+// the instance lacks vkCreateDebugUtilsMessengerEXT.
+Status create_messenger(VkInstance instance, PFN_vkDebugUtilsMessengerCallbackEXT callback,
+                        void* user, VkDebugUtilsMessengerEXT& messenger) {
+  VkDebugUtilsMessengerCreateInfoEXT info{};
+  info.sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT;
+  info.messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT |
+                         VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
+  info.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT |
+                     VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
+                     VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
+  info.pfnUserCallback = callback;
+  info.pUserData = user;
+  auto create = reinterpret_cast<PFN_vkCreateDebugUtilsMessengerEXT>(
+      vkGetInstanceProcAddr(instance, "vkCreateDebugUtilsMessengerEXT"));
+  if (create != nullptr) {
+    IMUFUSION_VK_CHECK(create(instance, &info, nullptr, &messenger),
+                       "vkCreateDebugUtilsMessengerEXT");
+  }
+  return {};
+}
+
+// The index of the device to use: by options.selector, else by IMUFUSION_DEVICE, else the best
+// type (select_device).
+Result<int> chosen_device(VkInstance instance, const DeviceOptions& options) {
+  auto infos = list_devices_of(instance);
+  if (!infos) return infos.error();
+  std::string selector = options.selector;
+  if (selector.empty()) {
+    if (const char* env = std::getenv("IMUFUSION_DEVICE")) selector = env;
+  }
+  return select_device(*infos, selector);
+}
+
+// Unified memory: a device-local + host-visible + coherent type on a heap of at least
+// `device_local_bytes` (the largest device-local heap).
+bool has_unified_memory(const VkPhysicalDeviceMemoryProperties& memory,
+                        std::uint64_t device_local_bytes) {
+  bool unified = false;
+  for (std::uint32_t t = 0; t < memory.memoryTypeCount; ++t) {
+    const VkMemoryPropertyFlags want = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT |
+                                       VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT |
+                                       VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+    const VkMemoryType& type = memory.memoryTypes[t];
+    if ((type.propertyFlags & want) == want &&
+        memory.memoryHeaps[type.heapIndex].size >= device_local_bytes) {
+      unified = true;
+    }
+  }
+  return unified;
+}
+
+// The logical device with one queue of `family`; `name` (the device's) goes into errors.
+Status create_device(VkPhysicalDevice physical, std::uint32_t family, const std::string& name,
+                     VkDevice& device) {
+  const float priority = 1.0f;
+  VkDeviceQueueCreateInfo queue_info{};
+  queue_info.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO;
+  queue_info.queueFamilyIndex = family;
+  queue_info.queueCount = 1;
+  queue_info.pQueuePriorities = &priority;
+  VkDeviceCreateInfo device_info{};
+  device_info.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
+  device_info.queueCreateInfoCount = 1;
+  device_info.pQueueCreateInfos = &queue_info;
+  IMUFUSION_VK_CHECK(vkCreateDevice(physical, &device_info, nullptr, &device),
+                     "vkCreateDevice on " + name);
+  return {};
+}
+
+// The pool of the one-shot command buffers (run_once): transient, on the queue's family.
+Status create_one_shot_pool(VkDevice device, std::uint32_t family, VkCommandPool& pool) {
+  VkCommandPoolCreateInfo pool_info{};
+  pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+  pool_info.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
+  pool_info.queueFamilyIndex = family;
+  IMUFUSION_VK_CHECK(vkCreateCommandPool(device, &pool_info, nullptr, &pool),
+                     "vkCreateCommandPool");
+  return {};
+}
+
+}  // namespace
+
 Result<std::shared_ptr<Context>> Context::create(const DeviceOptions& options) {
   std::shared_ptr<Context> context(new Context());
   IMUFUSION_RETURN_IF_ERROR(context->init(options));
@@ -213,42 +310,18 @@ Result<std::shared_ptr<Context>> Context::create(const DeviceOptions& options) {
 }
 
 Status Context::init(const DeviceOptions& options) {
-  const bool want_validation = options.validation || env_flag("IMUFUSION_VALIDATION");
-  const bool validation = want_validation && layer_available(kValidationLayer);
-  if (want_validation && !validation) {
-    std::cerr << "imufusion: validation requested but " << kValidationLayer
-              << " is not installed (Debian: vulkan-validationlayers); running without it\n";
-  }
-  const bool debug_utils = validation && instance_extension_available(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+  const bool validation = use_validation(options);
+  const bool debug_utils =
+      validation && instance_extension_available(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
   auto instance = make_instance(validation, debug_utils);
   if (!instance) return instance.error();
   instance_ = *instance;
-
   if (debug_utils) {
-    VkDebugUtilsMessengerCreateInfoEXT info{};
-    info.sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT;
-    info.messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT |
-                           VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
-    info.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT |
-                       VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
-                       VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
-    info.pfnUserCallback = &Context::on_validation_message;
-    info.pUserData = this;
-    auto create = reinterpret_cast<PFN_vkCreateDebugUtilsMessengerEXT>(
-        vkGetInstanceProcAddr(instance_, "vkCreateDebugUtilsMessengerEXT"));
-    if (create != nullptr) {
-      IMUFUSION_VK_CHECK(create(instance_, &info, nullptr, &messenger_),
-                         "vkCreateDebugUtilsMessengerEXT");
-    }
+    IMUFUSION_RETURN_IF_ERROR(
+        create_messenger(instance_, &Context::on_validation_message, this, messenger_));
   }
 
-  auto infos = list_devices_of(instance_);
-  if (!infos) return infos.error();
-  std::string selector = options.selector;
-  if (selector.empty()) {
-    if (const char* env = std::getenv("IMUFUSION_DEVICE")) selector = env;
-  }
-  auto chosen = select_device(*infos, selector);
+  auto chosen = chosen_device(instance_, options);
   if (!chosen) return chosen.error();
   auto devices = physical_devices(instance_);
   if (!devices) return devices.error();
@@ -260,40 +333,12 @@ Status Context::init(const DeviceOptions& options) {
   limits_ = props.limits;
   if (info_.timestamps) timestamp_period_ns_ = props.limits.timestampPeriod;
   vkGetPhysicalDeviceMemoryProperties(physical_device_, &memory_);
-  // Unified: a device-local + host-visible + coherent type on the largest device-local heap.
-  for (std::uint32_t t = 0; t < memory_.memoryTypeCount; ++t) {
-    const VkMemoryPropertyFlags want = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT |
-                                       VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT |
-                                       VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
-    const VkMemoryType& type = memory_.memoryTypes[t];
-    if ((type.propertyFlags & want) == want &&
-        memory_.memoryHeaps[type.heapIndex].size >= info_.device_local_bytes) {
-      unified_memory_ = true;
-    }
-  }
+  unified_memory_ = has_unified_memory(memory_, info_.device_local_bytes);
 
   queue_family_ = static_cast<std::uint32_t>(compute_queue_family(physical_device_));
-  const float priority = 1.0f;
-  VkDeviceQueueCreateInfo queue_info{};
-  queue_info.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO;
-  queue_info.queueFamilyIndex = queue_family_;
-  queue_info.queueCount = 1;
-  queue_info.pQueuePriorities = &priority;
-  VkDeviceCreateInfo device_info{};
-  device_info.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
-  device_info.queueCreateInfoCount = 1;
-  device_info.pQueueCreateInfos = &queue_info;
-  IMUFUSION_VK_CHECK(vkCreateDevice(physical_device_, &device_info, nullptr, &device_),
-                     "vkCreateDevice on " + info_.name);
+  IMUFUSION_RETURN_IF_ERROR(create_device(physical_device_, queue_family_, info_.name, device_));
   vkGetDeviceQueue(device_, queue_family_, 0, &queue_);
-
-  VkCommandPoolCreateInfo pool_info{};
-  pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
-  pool_info.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
-  pool_info.queueFamilyIndex = queue_family_;
-  IMUFUSION_VK_CHECK(vkCreateCommandPool(device_, &pool_info, nullptr, &one_shot_pool_),
-                     "vkCreateCommandPool");
-  return {};
+  return create_one_shot_pool(device_, queue_family_, one_shot_pool_);
 }
 
 Context::~Context() {
