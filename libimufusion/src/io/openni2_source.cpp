@@ -124,6 +124,8 @@ class OpenNI2Source final : public FrameSource {
  private:
   Status choose_depth_mode();
   Status intrinsics_from_fov();
+  Status open_playback();
+  Status set_intrinsics(const openni::VideoMode& mode);
   void open_color();
   int timeout_ms() const { return static_cast<int>(std::lround(options_.frame_timeout * 1000.0)); }
   Result<bool> wait_for_depth();
@@ -226,6 +228,46 @@ void OpenNI2Source::open_color() {
   if (playback_ != nullptr) color_frames_ = std::max(0, playback_->getNumberOfFrames(color_));
 }
 
+// The recording's player: manual pace and its depth frame count.
+Status OpenNI2Source::open_playback() {
+  playback_ = device_.getPlaybackControl();
+  if (playback_ == nullptr) {
+    return make_error(ErrorCode::kParseError, name_ + ": not a playable OpenNI2 recording");
+  }
+  playback_->setRepeatEnabled(false);
+  // -1 (manual): the player reads the next record only when a stream is waited on, so no
+  // frame is ever dropped. At any positive speed it reads on by itself at that pace and a
+  // stream keeps only its newest frame: a consumer slower than the recording loses frames.
+  // --realtime is therefore paced here (pacer_), on the recorded timestamps.
+  playback_->setSpeed(-1.0f);
+  // A recording whose recorder was never closed has no frame count (OpenNI2 reports -1):
+  // it plays until its data ends.
+  const int frames = playback_->getNumberOfFrames(depth_);
+  if (frames == 0) {
+    return make_error(ErrorCode::kParseError, name_ + ": the recording holds no depth frame");
+  }
+  total_frames_ = std::max(0, frames);
+  return {};
+}
+
+// The depth mode's size with the intrinsics given, else those from the sensor's field of view.
+Status OpenNI2Source::set_intrinsics(const openni::VideoMode& mode) {
+  intrinsics_.width = mode.getResolutionX();
+  intrinsics_.height = mode.getResolutionY();
+  if (!options_.intrinsics) return intrinsics_from_fov();
+  const Intrinsics& k = *options_.intrinsics;
+  if (!(k.fx > 0.0 && k.fy > 0.0 && std::isfinite(k.cx) && std::isfinite(k.cy))) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      name_ + ": the intrinsics given have a non-positive focal length (fx " +
+                          std::to_string(k.fx) + ", fy " + std::to_string(k.fy) + ")");
+  }
+  intrinsics_.fx = k.fx;
+  intrinsics_.fy = k.fy;
+  intrinsics_.cx = k.cx;
+  intrinsics_.cy = k.cy;
+  return {};
+}
+
 Status OpenNI2Source::open() {
   IMUFUSION_RETURN_IF_ERROR(acquire_openni());
   acquired_ = true;
@@ -257,23 +299,7 @@ Status OpenNI2Source::open() {
                       name_ + ": no depth stream: " + openni_error());
   }
   if (is_file_) {
-    playback_ = device_.getPlaybackControl();
-    if (playback_ == nullptr) {
-      return make_error(ErrorCode::kParseError, name_ + ": not a playable OpenNI2 recording");
-    }
-    playback_->setRepeatEnabled(false);
-    // -1 (manual): the player reads the next record only when a stream is waited on, so no
-    // frame is ever dropped. At any positive speed it reads on by itself at that pace and a
-    // stream keeps only its newest frame: a consumer slower than the recording loses frames.
-    // --realtime is therefore paced here (pacer_), on the recorded timestamps.
-    playback_->setSpeed(-1.0f);
-    // A recording whose recorder was never closed has no frame count (OpenNI2 reports -1):
-    // it plays until its data ends.
-    const int frames = playback_->getNumberOfFrames(depth_);
-    if (frames == 0) {
-      return make_error(ErrorCode::kParseError, name_ + ": the recording holds no depth frame");
-    }
-    total_frames_ = std::max(0, frames);
+    IMUFUSION_RETURN_IF_ERROR(open_playback());
   } else {
     IMUFUSION_RETURN_IF_ERROR(choose_depth_mode());
     watch_ = std::make_unique<DisconnectWatch>(info.getUri());
@@ -285,22 +311,7 @@ Status OpenNI2Source::open() {
                       name_ + ": depth pixel format " + std::to_string(mode.getPixelFormat()) +
                           " is neither 1 mm nor 100 um");
   }
-  intrinsics_.width = mode.getResolutionX();
-  intrinsics_.height = mode.getResolutionY();
-  if (options_.intrinsics) {
-    const Intrinsics& k = *options_.intrinsics;
-    if (!(k.fx > 0.0 && k.fy > 0.0 && std::isfinite(k.cx) && std::isfinite(k.cy))) {
-      return make_error(ErrorCode::kInvalidArgument,
-                        name_ + ": the intrinsics given have a non-positive focal length (fx " +
-                            std::to_string(k.fx) + ", fy " + std::to_string(k.fy) + ")");
-    }
-    intrinsics_.fx = k.fx;
-    intrinsics_.fy = k.fy;
-    intrinsics_.cx = k.cx;
-    intrinsics_.cy = k.cy;
-  } else {
-    IMUFUSION_RETURN_IF_ERROR(intrinsics_from_fov());
-  }
+  IMUFUSION_RETURN_IF_ERROR(set_intrinsics(mode));
   if (depth_.start() != openni::STATUS_OK) {
     return make_error(is_file_ ? ErrorCode::kParseError : ErrorCode::kIoError,
                       name_ + ": cannot start the depth stream: " + openni_error());
