@@ -264,8 +264,6 @@ class IcpTracker {
   /// of every association and reduction dispatch.
   Result<IcpResult> track(const DepthImage& depth, const Eigen::Isometry3d& T_ref_cur_init,
                           std::vector<KernelTiming>* timings = nullptr);
-  /// Makes the last tracked frame the reference (frame-to-frame tracking).
-  void swap_reference();
 
   const DeviceInfo& device() const;
   std::uint32_t validation_error_count() const;

@@ -18,7 +18,6 @@ struct IcpTracker::Impl {
   std::array<gpu::Preprocessor, 2> frames;  // the reference and the current frame, ping-pong
   int reference = 0;
   bool has_reference = false;
-  bool has_current = false;
   gpu::IcpKernels kernels;
   gpu::CommandSequence preprocess_seq;
   gpu::CommandSequence icp_seq;
@@ -87,16 +86,11 @@ Result<IcpResult> IcpTracker::track(const DepthImage& depth, const Eigen::Isomet
     return make_error(ErrorCode::kInvalidArgument, "IcpTracker::track before set_reference");
   const int current = 1 - impl_->reference;
   IMUFUSION_RETURN_IF_ERROR(impl_->preprocess(current, depth, timings));
-  impl_->has_current = true;
   gpu::GpuNormalEquationSource source(impl_->kernels, impl_->icp_seq,
                                       impl_->frames[static_cast<std::size_t>(current)],
                                       impl_->frames[static_cast<std::size_t>(impl_->reference)],
                                       timings);
   return run_icp(source, impl_->icp, T_ref_cur_init);
-}
-
-void IcpTracker::swap_reference() {
-  if (impl_->has_current) impl_->reference = 1 - impl_->reference;
 }
 
 const DeviceInfo& IcpTracker::device() const { return impl_->context->info(); }
