@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "io/sequence_check.hpp"
+#include "json_text.hpp"
 
 namespace {
 
@@ -223,7 +224,7 @@ int main(int argc, char** argv) {
       });
 
   if (json) {
-    std::cout << summary_json(check).dump(2) << "\n";
+    std::cout << imufusion::tools::json_text(summary_json(check)) << "\n";
   } else {
     print_summary(check);
   }

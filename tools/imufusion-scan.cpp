@@ -34,6 +34,7 @@
 #include "imufusion/source.hpp"
 #include "imufusion/trajectory.hpp"
 #include "io/atomic_file.hpp"
+#include "json_text.hpp"
 #include "overview_pose.hpp"
 #include "scan_live.hpp"
 
@@ -337,7 +338,7 @@ Status write_outputs(const Options& opt, Reconstructor& rec, const ScanRun& run,
   } else {
     *mesh_line = "no surface was fused: no mesh or preview written";
   }
-  return io::write_text_atomically(opt.out / "summary.json", summary.dump(2) + "\n");
+  return io::write_text_atomically(opt.out / "summary.json", tools::json_text(summary) + "\n");
 }
 
 bool is_device_input(const fs::path& input) {
