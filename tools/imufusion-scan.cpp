@@ -34,6 +34,7 @@
 #include "imufusion/source.hpp"
 #include "imufusion/trajectory.hpp"
 #include "io/atomic_file.hpp"
+#include "io/sequence_check.hpp"
 #include "json_text.hpp"
 #include "overview_pose.hpp"
 #include "scan_live.hpp"
@@ -202,14 +203,33 @@ void show_progress(std::size_t done, std::size_t total, const FrameResult& f, do
   std::fflush(stderr);
 }
 
-// `reader`: the sequence when the input is one (null for a camera or .oni recording).
+// Why the sequence's imu.txt cannot aid the scan (it covers none of the frames, e.g. on another
+// clock), or empty when it can or is not used.
+std::string sequence_imu_unusable(const Options& opt, const SequenceReader* reader) {
+  if (opt.no_imu || opt.imu_udp || reader == nullptr || !reader->has_imu()) return {};
+  const std::vector<double> stamps = reader->timestamps();
+  if (io::frames_within_imu(reader->imu(), stamps) > 0) return {};
+  const auto& imu = reader->imu();
+  char span[160];
+  if (imu.empty()) {
+    std::snprintf(span, sizeof span, "has no usable sample");
+  } else {
+    std::snprintf(span, sizeof span, "(%.3f .. %.3f s) covers none of the %zu frames (%.3f .. %.3f s)",
+                  imu.front().timestamp, imu.back().timestamp, stamps.size(), stamps.front(), stamps.back());
+  }
+  return (reader->info().directory / "imu.txt").string() + " " + span +
+         ": scanning without the IMU (the --no-imu settings)";
+}
+
+// `reader`: the sequence when the input is one (null for a camera or .oni recording);
+// `sequence_imu`: whether its imu.txt can aid the scan.
 ReconstructorConfig make_config(const Options& opt, const SequenceReader* reader, const FrameSource* source,
-                                const Intrinsics& k) {
+                                const Intrinsics& k, bool sequence_imu) {
   ReconstructorConfig config;
   config.intrinsics = k;
   config.volume.voxel_size = opt.voxel_size;
   config.device.selector = opt.device;
-  config.use_imu = !opt.no_imu && (opt.imu_udp || (reader != nullptr && reader->has_imu()));
+  config.use_imu = !opt.no_imu && (opt.imu_udp || (reader != nullptr && reader->has_imu() && sequence_imu));
   config.icp.max_total_iterations =
       opt.icp_iterations.value_or(config.use_imu ? kIcpIterationsWithImu : kIcpIterationsWithoutImu);
   config.tracking.recovery_frames = opt.recovery_frames;
@@ -232,6 +252,7 @@ struct ScanRun {
   std::vector<FrameResult> frames;
   std::vector<std::uint32_t> blocks;
   std::string stopped;  // why the scan ended early, empty when it ran through
+  std::string imu_fallback;  // why the sequence's IMU was not used, empty when it was
   std::size_t frames_without_pose = 0;
 };
 
@@ -267,6 +288,11 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
   s["frame_step"] = opt.frame_step;
   s["imu"] = c.use_imu;
   s["imu_in_sequence"] = reader != nullptr && reader->has_imu();
+  if (!run.imu_fallback.empty()) s["imu_fallback"] = run.imu_fallback;
+  if (reader != nullptr && reader->has_imu()) {
+    j["imu_rejected"] = {{"implausible", reader->info().imu_implausible},
+                         {"time_jumps", reader->info().imu_time_jumps}};
+  }
   s["imu_source"] = !c.use_imu ? "none" : opt.imu_udp ? "udp" : "sequence";
   s["icp_iterations_cap"] = c.icp.max_total_iterations;
   s["recovery_icp_iterations"] = c.tracking.recovery_icp_iterations;
@@ -507,7 +533,15 @@ int main(int argc, char** argv) {
     k.height = reader->info().height;
   }
   const SequenceReader* sequence = reader ? &*reader : nullptr;
-  auto rec = Reconstructor::create(make_config(opt, sequence, source.get(), k));
+  ScanRun run;
+  run.imu_fallback = sequence_imu_unusable(opt, sequence);
+  if (!run.imu_fallback.empty()) std::cerr << "warning: " << run.imu_fallback << "\n";
+  if (sequence != nullptr && (sequence->info().imu_implausible > 0 || sequence->info().imu_time_jumps > 0)) {
+    std::cerr << "warning: " << (sequence->info().directory / "imu.txt").string() << ": left out "
+              << sequence->info().imu_implausible << " samples beyond a real IMU's range and "
+              << sequence->info().imu_time_jumps << " jumps in time\n";
+  }
+  auto rec = Reconstructor::create(make_config(opt, sequence, source.get(), k, run.imu_fallback.empty()));
   if (!rec) return fail(rec.error().describe());
   std::optional<tools::LiveImu> imu;
   if (opt.imu_udp) {
@@ -531,7 +565,6 @@ int main(int argc, char** argv) {
   tools::SteppedFrames frames(source ? nullptr : &*reader, source.get(), opt.frame_step);
   const std::size_t total =
       reader ? std::min(frames.kept_of(reader->frame_count()), limit) : (opt.max_frames > 0 ? limit : 0);
-  ScanRun run;
   int exit_code = scan_frames(opt, *rec, ScanInputs{frames, total, imu, recorder, known}, run);
   if (!run.stopped.empty()) std::cerr << (exit_code == 130 ? "stopped: " : "error: ") << run.stopped << "\n";
   nlohmann::json recording;

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -13,6 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "imufusion/sequence.hpp"
 #include "scan_test_fixtures.hpp"
 #include "udp_replay.hpp"
 
@@ -31,6 +34,17 @@ fs::path synthesize(const fs::path& root, const std::string& name, int frames, s
   return test::synthesize_small(root, name, synth::SceneKind::kRoom, frames, seed);
 }
 
+std::string fixed(double seconds) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.9f", seconds);
+  return buffer;
+}
+
+std::size_t tracked_frames(const nlohmann::json& summary) {
+  return summary["frames"].get<std::size_t>() - summary["lost_frames"].get<std::size_t>() -
+         summary["recovering_frames"].get<std::size_t>();
+}
+
 // Rewrites each data line of `file` through `edit(index, line)`.
 template <typename Edit>
 void edit_lines(const fs::path& file, Edit edit) {
@@ -42,6 +56,18 @@ void edit_lines(const fs::path& file, Edit edit) {
     out += line + "\n";
   }
   std::ofstream(file, std::ios::binary) << out;
+}
+
+// imu.txt's line `index` with its gyro (fields 2-4) replaced.
+void set_gyro(const fs::path& seq, int index, const std::string& gyro) {
+  edit_lines(seq / "imu.txt", [&](int i, const std::string& line) {
+    if (i != index) return line;
+    std::istringstream fields(line);
+    std::string t, wx, wy, wz, rest;
+    fields >> t >> wx >> wy >> wz;
+    std::getline(fields, rest);
+    return t + " " + gyro + rest;
+  });
 }
 
 class ScanHostileInput : public test::ScanToolTest {
@@ -107,6 +133,70 @@ TEST_F(ScanHostileInput, ADatagramThatIsNotUtf8IsCountedAndTheScanGoesOn) {
   const auto summary = read_json(path("out") / "summary.json");
   EXPECT_GE(summary["imu_stream"]["malformed"].get<int>(), 1);
   EXPECT_EQ(summary["frames"], 15);
+}
+
+TEST_F(ScanHostileInput, ImuSamplesNoSensorGivesAreLeftOutAndCounted) {
+  const fs::path seq = synthesize(scratch_.path(), "room", 20, 47);
+  set_gyro(seq, 40, "1e300 0 0");  // not finite once integrated
+  set_gyro(seq, 90, "0 1000 0");   // 160 turns a second
+  const auto run = scan_within_deadline(seq.string() + " --out " + path("out").string() + " --quiet");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.err.find("2 samples beyond"), std::string::npos) << run.err;
+  const auto summary = read_json(path("out") / "summary.json");
+  EXPECT_EQ(summary["imu_rejected"]["implausible"], 2);
+  EXPECT_EQ(summary["settings"]["imu"], true);
+  EXPECT_EQ(summary["lost_frames"], 0) << summary.dump(2);
+  ASSERT_TRUE(summary.contains("ate"));
+  EXPECT_LT(summary["ate"]["rmse"].get<double>(), 0.015);
+
+  const auto info = tool("imufusion-info", seq.string() + " --json");
+  ASSERT_EQ(info.exit_code, 0) << info.err;
+  EXPECT_EQ(nlohmann::json::parse(info.out)["imu"]["implausible_samples"], 2);
+}
+
+TEST_F(ScanHostileInput, ImuThatCoversNoFrameFallsBackToTheSettingsWithout) {
+  const fs::path seq = synthesize(scratch_.path(), "room", 8, 49);
+  edit_lines(seq / "imu.txt", [](int, const std::string& line) {
+    const std::size_t space = line.find(' ');
+    return fixed(std::stod(line.substr(0, space)) + 1000.0) + line.substr(space);
+  });
+  const auto run = scan_within_deadline(seq.string() + " --out " + path("out").string() + " --quiet");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.err.find("covers none of the 8 frames"), std::string::npos) << run.err;
+  const auto summary = read_json(path("out") / "summary.json");
+  EXPECT_EQ(summary["settings"]["imu_in_sequence"], true);
+  EXPECT_EQ(summary["settings"]["imu"], false);
+  EXPECT_EQ(summary["settings"]["icp_iterations_cap"], 30);
+  EXPECT_TRUE(summary["settings"].contains("imu_fallback"));
+
+  const auto info = tool("imufusion-info", seq.string());
+  EXPECT_EQ(info.exit_code, 0) << info.err;
+  EXPECT_NE(info.out.find("covers none of the depth frames"), std::string::npos) << info.out;
+}
+
+TEST_F(ScanHostileInput, ALineFarInTheFutureOverUdpDoesNotMoveTheClock) {
+  constexpr int kFrames = 30;
+  const fs::path seq = synthesize(scratch_.path(), "room", kFrames, 9);
+  auto reader = SequenceReader::open(seq);
+  ASSERT_TRUE(reader.ok()) << reader.error().describe();
+  const double t_first_frame = reader->timestamps().front();
+  std::vector<std::pair<double, std::string>> datagrams;
+  for (const auto& [t, line] : test::imu_lines(seq / "imu.txt")) {
+    datagrams.emplace_back(t - t_first_frame, line + "\n");
+    // One line a million seconds ahead of the stream, early in the scan.
+    if (datagrams.size() == 60) datagrams.emplace_back(t - t_first_frame, fixed(t + 1e6) + " 0 0 0 0 9.81 0\n");
+  }
+  const std::uint16_t port = test::free_udp_port();
+  test::UdpReplay sender(port, path("tool_stderr.txt"), datagrams);
+  const auto run = scan(seq.string() + " --realtime --imu-udp " + std::to_string(port) + " --out " +
+                        path("out").string());
+  sender.stop();
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto summary = read_json(path("out") / "summary.json");
+  const auto& stream = summary["imu_stream"];
+  EXPECT_EQ(stream["time_jumps"], 1) << stream.dump(2);
+  EXPECT_LT(std::abs(stream["clock_offset_frame_s"].get<double>()), 0.5) << stream.dump(2);
+  EXPECT_GE(tracked_frames(summary), static_cast<std::size_t>(kFrames * 8 / 10)) << summary.dump(2);
 }
 
 }  // namespace

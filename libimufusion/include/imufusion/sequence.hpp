@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "imufusion/imu_stream.hpp"
 #include "imufusion/result.hpp"
 #include "imufusion/types.hpp"
 
@@ -59,8 +60,10 @@ struct SequenceInfo {
 
   Trajectory ground_truth;  // groundtruth.txt (empty when absent)
   bool has_ground_truth = false;
-  std::vector<ImuSample> imu;  // imu.txt (empty when absent)
+  std::vector<ImuSample> imu;  // imu.txt (empty when absent), without the rejected samples
   bool has_imu = false;
+  std::size_t imu_implausible = 0;  // imu.txt samples beyond SequenceOptions::imu_limits
+  std::size_t imu_time_jumps = 0;   // imu.txt samples rejected as jumps in time
   std::vector<AccelerometerSample> accelerometer;  // accelerometer.txt (empty when absent)
 };
 
@@ -76,6 +79,8 @@ struct SequenceOptions {
   /// Intrinsics to use instead of calibration.txt (required when the file is absent). width and
   /// height are ignored: they are taken from the images.
   std::optional<Intrinsics> intrinsics;
+  /// imu.txt samples beyond these, or jumping in time, are left out (counted in SequenceInfo).
+  ImuSampleLimits imu_limits;
 };
 
 /// One depth frame with what belongs to it.

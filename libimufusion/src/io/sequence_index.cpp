@@ -5,6 +5,7 @@
 #include <tuple>
 
 #include "imufusion/trajectory.hpp"
+#include "io/imu_gate.hpp"
 #include "io/png_codec.hpp"
 #include "io/text_table.hpp"
 
@@ -270,17 +271,26 @@ class Loader {
     SequenceInfo& info = index_.info;
     info.has_imu = true;
     info.imu.reserve(lines->size());
+    ImuGate gate(options_.imu_limits);
+    std::vector<ReceivedImuSample> released;
     for (const TextLine& line : *lines) {
       double v[7];
       if (!parse_numbers(line, path, {"timestamp", "wx", "wy", "wz", "ax", "ay", "az"}, v)) {
         continue;
       }
-      if (!check_increasing(info.imu.empty() ? 0 : info.imu.back().timestamp, !info.imu.empty(),
-                            v[0], line, path)) {
-        continue;
+      const double latest = gate.latest();
+      released.clear();
+      const ReceivedImuSample sample{ImuSample{v[0], {v[1], v[2], v[3]}, {v[4], v[5], v[6]}}, 0};
+      if (gate.push(sample, &released) == ImuVerdict::kOutOfOrder) {
+        check_increasing(latest, true, v[0], line, path);
       }
-      info.imu.push_back(ImuSample{v[0], {v[1], v[2], v[3]}, {v[4], v[5], v[6]}});
+      for (const ReceivedImuSample& accepted : released) info.imu.push_back(accepted.sample);
     }
+    released.clear();
+    gate.finish(&released);
+    for (const ReceivedImuSample& accepted : released) info.imu.push_back(accepted.sample);
+    info.imu_implausible = gate.implausible();
+    info.imu_time_jumps = gate.time_jumps();
   }
 
   void load_accelerometer() {
