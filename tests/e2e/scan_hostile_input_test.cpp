@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -197,6 +199,44 @@ TEST_F(ScanHostileInput, ALineFarInTheFutureOverUdpDoesNotMoveTheClock) {
   EXPECT_EQ(stream["time_jumps"], 1) << stream.dump(2);
   EXPECT_LT(std::abs(stream["clock_offset_frame_s"].get<double>()), 0.5) << stream.dump(2);
   EXPECT_GE(tracked_frames(summary), static_cast<std::size_t>(kFrames * 8 / 10)) << summary.dump(2);
+}
+
+TEST_F(ScanHostileInput, AFifoOrADeviceWhereAFileBelongsIsRefusedPromptly) {
+  const fs::path seq = synthesize(scratch_.path(), "room", 4, 51);
+  fs::remove(seq / "groundtruth.txt");
+  ASSERT_EQ(::mkfifo((seq / "groundtruth.txt").c_str(), 0600), 0);
+  auto scanned = scan_within_deadline(seq.string() + " --out " + path("out").string() + " --quiet");
+  EXPECT_EQ(scanned.exit_code, 1) << "124: it hung\n" << scanned.err;
+  EXPECT_NE(scanned.err.find("groundtruth.txt: not a regular file"), std::string::npos) << scanned.err;
+  auto info = tool("imufusion-info", seq.string());
+  EXPECT_EQ(info.exit_code, 1) << info.err;
+  EXPECT_NE(info.out.find("NOT scannable"), std::string::npos) << info.out;
+
+  fs::remove(seq / "groundtruth.txt");
+  fs::remove(seq / "imu.txt");
+  fs::create_symlink("/dev/zero", seq / "imu.txt");
+  scanned = scan_within_deadline(seq.string() + " --out " + path("out").string() + " --quiet");
+  EXPECT_EQ(scanned.exit_code, 1) << scanned.err;
+  EXPECT_NE(scanned.err.find("imu.txt: not a regular file"), std::string::npos) << scanned.err;
+  info = tool("imufusion-info", seq.string());
+  EXPECT_EQ(info.exit_code, 1) << info.err;
+  EXPECT_NE(info.out.find("NOT scannable"), std::string::npos) << info.out;
+}
+
+TEST_F(ScanHostileInput, IntrinsicsNoCameraHasAreRefusedNamingTheValue) {
+  const fs::path seq = synthesize(scratch_.path(), "room", 4, 53);
+  for (const auto& [line, named] : {std::pair{"1e-06 100 79.5 59.5", "fx 1e-06"},
+                                    std::pair{"100 100 1e+09 59.5", "cx 1e+09"}}) {
+    std::ofstream(seq / "calibration.txt") << line << "\n";
+    const auto scanned = scan_within_deadline(seq.string() + " --out " + path("out").string() + " --quiet");
+    EXPECT_EQ(scanned.exit_code, 1) << scanned.err;
+    EXPECT_NE(scanned.err.find(named), std::string::npos) << scanned.err;
+    EXPECT_NE(scanned.err.find("calibration.txt"), std::string::npos) << scanned.err;
+    const auto info = tool("imufusion-info", seq.string());
+    EXPECT_EQ(info.exit_code, 1) << info.err;
+    EXPECT_NE(info.out.find("NOT scannable"), std::string::npos) << info.out;
+    EXPECT_NE(info.err.find(named), std::string::npos) << info.err;
+  }
 }
 
 }  // namespace

@@ -71,6 +71,64 @@ TEST_F(HostileFiles, TheFixtureIsASoundSequence) {
   EXPECT_EQ(reader->info().imu_time_jumps, 0u);
 }
 
+TEST_F(HostileFiles, AFifoGroundTruthIsRefusedWithoutWaiting) {
+  const fs::path fifo = dir / "groundtruth.txt";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const std::string error = open_error_within(fifo, std::chrono::seconds(20));
+  EXPECT_NE(error.find(fifo.string()), std::string::npos) << error;
+  EXPECT_NE(error.find("not a regular file"), std::string::npos) << error;
+  const io::SequenceCheck check = io::check_sequence(dir.path(), nullptr);
+  EXPECT_FALSE(check.scannable);
+}
+
+TEST_F(HostileFiles, ADeviceAsImuTxtIsRefusedBeforeItIsRead) {
+  fs::remove(dir / "imu.txt");
+  fs::create_symlink("/dev/zero", dir / "imu.txt");
+  auto reader = SequenceReader::open(dir.path());
+  ASSERT_FALSE(reader.ok());
+  EXPECT_NE(reader.error().message.find((dir / "imu.txt").string()), std::string::npos)
+      << reader.error().message;
+  EXPECT_NE(reader.error().message.find("not a regular file"), std::string::npos);
+}
+
+TEST(ReadFileBytes, AFileOverItsLimitIsRefusedNamingIt) {
+  TempDir dir;
+  write_text(dir / "big.txt", std::string(101, 'x'));
+  auto bytes = io::read_file_bytes(dir / "big.txt", 100);
+  ASSERT_FALSE(bytes.ok());
+  EXPECT_NE(bytes.error().message.find("big.txt"), std::string::npos);
+  EXPECT_NE(bytes.error().message.find("100-byte limit"), std::string::npos) << bytes.error().message;
+  EXPECT_TRUE(io::read_file_bytes(dir / "big.txt", 101).ok());
+  EXPECT_EQ(io::read_file_bytes(dir / "none.txt").error().code, ErrorCode::kNotFound);
+}
+
+TEST_F(HostileFiles, IntrinsicsNoCameraHasAreRefusedNamingTheValue) {
+  const struct {
+    const char* line;
+    const char* named;
+  } cases[] = {{"1e-06 31 16 12\n", "fx 1e-06"},  // a field of view of 180 degrees
+               {"30 1e+06 16 12\n", "fy 1e+06"},  // 0.001 degrees
+               {"30 31 1e+09 12\n", "cx 1e+09"},
+               {"30 31 16 -3\n", "must be positive"},
+               {"30 31 16 25\n", "cy 25"}};  // below the image
+  for (const auto& c : cases) {
+    write_text(dir / "calibration.txt", c.line);
+    auto reader = SequenceReader::open(dir.path());
+    ASSERT_FALSE(reader.ok()) << c.line;
+    EXPECT_NE(reader.error().message.find((dir / "calibration.txt").string()), std::string::npos)
+        << reader.error().message;
+    EXPECT_NE(reader.error().message.find(c.named), std::string::npos) << reader.error().message;
+    EXPECT_FALSE(io::check_sequence(dir.path(), nullptr).scannable) << c.line;
+  }
+  SequenceOptions options;
+  options.intrinsics = Intrinsics{1e-6, 31, 16, 12, 0, 0};
+  fs::remove(dir / "calibration.txt");
+  auto reader = SequenceReader::open(dir.path(), options);
+  ASSERT_FALSE(reader.ok());
+  EXPECT_NE(reader.error().message.find("passed by the caller: fx 1e-06"), std::string::npos)
+      << reader.error().message;
+}
+
 TEST_F(HostileFiles, ImpossibleImuSamplesAndJumpsInTimeAreLeftOutAndCounted) {
   std::string imu;
   for (int k = 0; k <= 80; ++k) {

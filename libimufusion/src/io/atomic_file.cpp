@@ -1,5 +1,9 @@
 #include "io/atomic_file.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <atomic>
 #include <cerrno>
 #include <cstring>
@@ -68,29 +72,58 @@ Status write_text_atomically(const std::filesystem::path& path, std::string_view
   });
 }
 
-Result<std::vector<std::uint8_t>> read_file_bytes(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) {
-    return make_error(ErrorCode::kNotFound, path.string() + ": no such file");
-  }
-  if (std::filesystem::is_directory(path, ec)) {
-    return make_error(ErrorCode::kIoError, path.string() + ": is a directory, not a file");
-  }
-  std::FILE* file = std::fopen(path.c_str(), "rb");
-  if (file == nullptr) {
+Result<std::vector<std::uint8_t>> read_file_bytes(const std::filesystem::path& path,
+                                                  std::uint64_t max_bytes) {
+  // O_NONBLOCK: opening a FIFO must not wait for a writer; fstat then refuses it.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) {
+    if (errno == ENOENT) return make_error(ErrorCode::kNotFound, path.string() + ": no such file");
     return make_error(ErrorCode::kIoError, "cannot open " + path.string() + ": " + errno_text());
   }
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) {
+    Error error = make_error(ErrorCode::kIoError, "cannot stat " + path.string() + ": " + errno_text());
+    ::close(fd);
+    return error;
+  }
+  if (!S_ISREG(st.st_mode)) {
+    ::close(fd);
+    if (S_ISDIR(st.st_mode)) {
+      return make_error(ErrorCode::kIoError, path.string() + ": is a directory, not a file");
+    }
+    return make_error(ErrorCode::kInvalidArgument,
+                      path.string() +
+                          ": not a regular file (a FIFO, device or socket); only regular files "
+                          "are read");
+  }
+  const auto too_large = [&] {
+    return make_error(ErrorCode::kInvalidArgument,
+                      path.string() + ": larger than the " + std::to_string(max_bytes) +
+                          "-byte limit for this file");
+  };
+  if (static_cast<std::uint64_t>(st.st_size) > max_bytes) {
+    ::close(fd);
+    return too_large();
+  }
   std::vector<std::uint8_t> bytes;
+  bytes.reserve(static_cast<std::size_t>(st.st_size));
   std::uint8_t chunk[1 << 16];
-  std::size_t n = 0;
-  while ((n = std::fread(chunk, 1, sizeof(chunk), file)) > 0) {
+  while (true) {
+    const ssize_t n = ::read(fd, chunk, sizeof(chunk));
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) {
+      Error error = make_error(ErrorCode::kIoError, "cannot read " + path.string() + ": " + errno_text());
+      ::close(fd);
+      return error;
+    }
+    if (n == 0) break;
+    if (bytes.size() + static_cast<std::size_t>(n) > max_bytes) {  // grew while being read
+      ::close(fd);
+      return too_large();
+    }
     bytes.insert(bytes.end(), chunk, chunk + n);
   }
-  const bool failed = std::ferror(file) != 0;
-  std::fclose(file);
-  if (failed) {
-    return make_error(ErrorCode::kIoError, "cannot read " + path.string() + ": " + errno_text());
-  }
+  ::close(fd);
   return bytes;
 }
 

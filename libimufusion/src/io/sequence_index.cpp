@@ -17,6 +17,13 @@ namespace fs = std::filesystem;
 // |q| may be off 1 by rounding of the printed decimals; beyond this the line is corrupt.
 constexpr double kQuaternionNormTolerance = 1e-3;
 
+// The field of view of any depth camera lies between these (degrees); fx = width / (2 tan(fov/2)).
+constexpr double kMinFieldOfViewDeg = 3.0, kMaxFieldOfViewDeg = 170.0;
+
+double focal_for_fov(int pixels, double fov_deg) {
+  return pixels / (2.0 * std::tan(0.5 * fov_deg * 3.14159265358979323846 / 180.0));
+}
+
 class Loader {
  public:
   Loader(const fs::path& directory, const SequenceOptions& options)
@@ -45,6 +52,7 @@ class Loader {
     load_accelerometer();
     load_ground_truth();
     determine_image_size();
+    check_intrinsics_plausible();
     if (info.intrinsics) {
       info.intrinsics->width = info.width;
       info.intrinsics->height = info.height;
@@ -234,6 +242,47 @@ class Loader {
     if (!options_.intrinsics) {
       info.intrinsics = Intrinsics{v[0], v[1], v[2], v[3], 0, 0};
       info.intrinsics_from_file = true;
+    }
+  }
+
+  // Focal lengths must give a camera's field of view over the image, and the principal point
+  // must lie on it: nonsense there makes fusion allocate without bound (1/fx).
+  void check_intrinsics_plausible() {
+    const SequenceInfo& info = index_.info;
+    if (!info.intrinsics || info.width <= 0 || info.height <= 0) return;
+    const Intrinsics& k = *info.intrinsics;
+    const std::string source = info.intrinsics_from_file
+                                   ? (dir_ / "calibration.txt").string() + ": "
+                                   : std::string("intrinsics passed by the caller: ");
+    const struct {
+      const char* focal_name;
+      double focal;
+      const char* centre_name;
+      double centre;
+      int pixels;
+      const char* extent;
+    } axes[] = {{"fx", k.fx, "cx", k.cx, info.width, "width"},
+                {"fy", k.fy, "cy", k.cy, info.height, "height"}};
+    for (const auto& a : axes) {
+      const double low = focal_for_fov(a.pixels, kMaxFieldOfViewDeg);
+      const double high = focal_for_fov(a.pixels, kMinFieldOfViewDeg);
+      if (!(a.focal >= low && a.focal <= high)) {
+        add(make_error(ErrorCode::kInvalidArgument,
+                       source + a.focal_name + " " + format_exact(a.focal) +
+                           " is implausible for an image " + std::to_string(a.pixels) +
+                           " pixels in " + a.extent + ": a camera's field of view of " +
+                           format_exact(kMinFieldOfViewDeg) + " to " +
+                           format_exact(kMaxFieldOfViewDeg) + " degrees needs " + a.focal_name +
+                           " in [" + format_exact(std::round(low * 100) / 100) + ", " +
+                           format_exact(std::round(high * 100) / 100) + "] pixels"));
+      }
+      if (!(a.centre >= 0 && a.centre <= a.pixels)) {
+        add(make_error(ErrorCode::kInvalidArgument,
+                       source + a.centre_name + " " + format_exact(a.centre) +
+                           " lies outside the image (" + a.extent + " " +
+                           std::to_string(a.pixels) + " pixels): the principal point must be " +
+                           "on the image, in [0, " + std::to_string(a.pixels) + "]"));
+      }
     }
   }
 
