@@ -44,8 +44,10 @@ using namespace imufusion;
 
 namespace {
 
+// The signal that asked the scan to stop (SIGINT or SIGTERM), 0 while none did: the scan ends
+// after its current frame and writes every output, as at the end of the input.
 volatile std::sig_atomic_t g_interrupted = 0;
-void on_interrupt(int) { g_interrupted = 1; }
+void on_interrupt(int signal) { g_interrupted = signal; }
 
 struct Options {
   fs::path input;
@@ -454,8 +456,9 @@ int scan_frames(const Options& opt, Reconstructor& rec, ScanInputs in, ScanRun& 
   double elapsed_ms = 0;
   for (std::size_t i = 0; i < limit; ++i) {
     if (g_interrupted) {
-      run.stopped = "interrupted after " + std::to_string(i) + " frames";
-      exit_code = 130;
+      run.stopped = std::string(g_interrupted == SIGTERM ? "terminated (SIGTERM)" : "interrupted") + " after " +
+                    std::to_string(i) + " frames";
+      exit_code = 128 + g_interrupted;
       break;
     }
     auto next = in.frames.next();
@@ -471,6 +474,7 @@ int scan_frames(const Options& opt, Reconstructor& rec, ScanInputs in, ScanRun& 
     std::vector<ImuSample> imu_raw = frame.imu;
     if (in.imu) frame.imu = in.imu->take(frame.timestamp, &imu_raw);
     if (in.recorder) {
+      if (in.imu) in.recorder->set_imu_clock_offset(in.imu->imu_to_frame_offset());
       in.recorder->push_imu(imu_raw);
       in.recorder->push_frame(frame);
     }
@@ -561,12 +565,13 @@ int main(int argc, char** argv) {
   if (imu && !opt.quiet) std::cerr << "imu: listening on " << imu->endpoint() << std::endl;
 
   std::signal(SIGINT, on_interrupt);
+  std::signal(SIGTERM, on_interrupt);
   const std::size_t limit = frame_limit(opt);
   tools::SteppedFrames frames(source ? nullptr : &*reader, source.get(), opt.frame_step);
   const std::size_t total =
       reader ? std::min(frames.kept_of(reader->frame_count()), limit) : (opt.max_frames > 0 ? limit : 0);
   int exit_code = scan_frames(opt, *rec, ScanInputs{frames, total, imu, recorder, known}, run);
-  if (!run.stopped.empty()) std::cerr << (exit_code == 130 ? "stopped: " : "error: ") << run.stopped << "\n";
+  if (!run.stopped.empty()) std::cerr << (exit_code > 128 ? "stopped: " : "error: ") << run.stopped << "\n";
   nlohmann::json recording;
   if (recorder) {
     if (imu) recorder->set_imu_clock_offset(imu->imu_to_frame_offset());

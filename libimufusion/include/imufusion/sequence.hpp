@@ -144,12 +144,17 @@ class SequenceReader {
 
 /// Writes a sequence in the FORMAT.md layout. Images go to disk as they are added (depth/ and
 /// rgb/, PNG, named by timestamp); index and text files are written atomically by finish(). A
-/// writer destroyed without finish() leaves images but no index files.
+/// writer destroyed without finish() leaves images but no index files, unless write_as_you_go.
 class SequenceWriter {
  public:
   struct Options {
     /// Allow a directory that already has content; files of the same name are replaced.
     bool allow_existing = false;
+    /// Append each index line (depth.txt, rgb.txt, imu.txt) as its image or sample is added,
+    /// flushed, and write calibration.txt, imu_to_camera.txt and info.txt as soon as they are
+    /// known: a writer that never reaches finish() (a killed process, a full disk) leaves a
+    /// sequence readable up to its last complete frame. finish() still rewrites every file.
+    bool write_as_you_go = false;
   };
 
   /// Creates `directory` (and parents). Fails when it exists and is not empty, unless allowed.
@@ -168,6 +173,9 @@ class SequenceWriter {
   Status add_color(double timestamp, const ColorImage& image);
   /// Timestamps must increase strictly.
   Status add_imu(const ImuSample& sample);
+  /// Forgets the IMU samples added so far and stops appending to imu.txt: finish() writes only
+  /// those added after (e.g. the session's samples again, on a corrected clock).
+  void forget_imu();
   /// Timestamps must increase strictly.
   Status add_ground_truth(const StampedPose& pose);
   /// calibration.txt (fx fy cx cy must be positive).

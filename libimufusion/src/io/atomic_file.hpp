@@ -1,9 +1,10 @@
 #pragma once
-// Atomic replacement of a file: the content goes to `PATH.tmp-XXXXXXXX` in the same directory and
-// is renamed over PATH only when complete, so a reader never sees a half-written file under the
-// final name and a failed write leaves an existing file untouched. (Durability across a power
-// loss is not promised: there is no fsync.) Reading takes regular files only, up to a size
-// limit, so a FIFO cannot block a reader nor a device exhaust its memory.
+// Atomic replacement of a file: the content goes to `PATH.tmp-PID-XXXXXXXX` in the same
+// directory and is renamed over PATH only when complete, so a reader never sees a half-written
+// file under the final name and a failed write leaves an existing file untouched. (Durability
+// across a power loss is not promised: there is no fsync.) A temporary left by a killed writer
+// is removed by the next process that writes into its directory. Reading takes regular files
+// only, up to a size limit, so a FIFO cannot block a reader nor a device exhaust its memory.
 
 #include <cstdint>
 #include <cstdio>
@@ -28,6 +29,10 @@ Status write_file_atomically(const std::filesystem::path& path,
 
 /// Writes `content` to `path` atomically.
 Status write_text_atomically(const std::filesystem::path& path, std::string_view content);
+
+/// Removes the temporaries of atomic writes into `directory` whose writer is no longer running
+/// (write_file_atomically does this on its first write into a directory); returns how many.
+std::size_t remove_stale_temporaries(const std::filesystem::path& directory);
 
 /// Reads a whole regular file of at most `max_bytes`. kNotFound when it does not exist,
 /// kInvalidArgument when it is a FIFO, device or socket or is larger, kIoError when it is a
