@@ -34,6 +34,7 @@
 #include "imufusion/source.hpp"
 #include "imufusion/trajectory.hpp"
 #include "io/atomic_file.hpp"
+#include "io/output_set.hpp"
 #include "io/sequence_check.hpp"
 #include "json_text.hpp"
 #include "overview_pose.hpp"
@@ -335,38 +336,43 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
   return j;
 }
 
-// Writes every output of the frames scanned so far; returns the first failure.
-Status write_outputs(const Options& opt, Reconstructor& rec, const ScanRun& run, const nlohmann::json& summary_in,
-                     std::string* mesh_line) {
-  IMUFUSION_RETURN_IF_ERROR(write_trajectory(opt.out / "trajectory.txt", rec.trajectory(),
+// The outputs of a scan, replaced as one set; summary.json, last, marks the set complete.
+const std::vector<std::string> kOutputs = {"trajectory.txt", "frames.csv",   "mesh.glb",    "mesh.ply",
+                                           "preview.png",    "overview.png", "summary.json"};
+
+// Writes every output of the frames scanned so far into the set's staging directory; returns
+// the first failure.
+Status write_outputs(const io::OutputSet& set, Reconstructor& rec, const ScanRun& run,
+                     const nlohmann::json& summary_in, std::string* mesh_line) {
+  IMUFUSION_RETURN_IF_ERROR(write_trajectory(set.staged("trajectory.txt"), rec.trajectory(),
                                              "camera-to-world poses of imufusion-scan, one per scanned frame"));
   std::string csv = frames_csv_header() + "\n";
   for (std::size_t i = 0; i < run.frames.size(); ++i) csv += frames_csv_row(run.frames[i], run.blocks[i]) + "\n";
-  IMUFUSION_RETURN_IF_ERROR(io::write_text_atomically(opt.out / "frames.csv", csv));
+  IMUFUSION_RETURN_IF_ERROR(io::write_text_atomically(set.staged("frames.csv"), csv));
   nlohmann::json summary = summary_in;
   auto mesh = rec.extract_mesh();
   if (!mesh) return mesh.error();
   summary["mesh_vertices"] = mesh->vertices.size();
   summary["mesh_triangles"] = mesh->triangles.size();
   if (!mesh->triangles.empty()) {
-    IMUFUSION_RETURN_IF_ERROR(write_glb(opt.out / "mesh.glb", *mesh));
-    IMUFUSION_RETURN_IF_ERROR(write_ply(opt.out / "mesh.ply", *mesh));
+    IMUFUSION_RETURN_IF_ERROR(write_glb(set.staged("mesh.glb"), *mesh));
+    IMUFUSION_RETURN_IF_ERROR(write_ply(set.staged("mesh.ply"), *mesh));
     auto preview = rec.raycast(rec.trajectory().back().T_world_camera);
     if (!preview) return preview.error();
-    IMUFUSION_RETURN_IF_ERROR(write_color_png(opt.out / "preview.png", preview->shaded));
+    IMUFUSION_RETURN_IF_ERROR(write_color_png(set.staged("preview.png"), preview->shaded));
     auto volume = rec.snapshot();
     if (!volume) return volume.error();
     auto overview = rec.raycast(tools::overview_pose(*volume, rec.trajectory().front().T_world_camera,
                                                      rec.config().intrinsics),
                                 std::nullopt, std::pair{0.1f, 100.0f});
     if (!overview) return overview.error();
-    IMUFUSION_RETURN_IF_ERROR(write_color_png(opt.out / "overview.png", overview->shaded));
+    IMUFUSION_RETURN_IF_ERROR(write_color_png(set.staged("overview.png"), overview->shaded));
     *mesh_line = "mesh " + std::to_string(mesh->triangles.size()) + " triangles -> " +
-                 (opt.out / "mesh.glb").string() + ", preview -> " + (opt.out / "preview.png").string();
+                 set.final_path("mesh.glb").string() + ", preview -> " + set.final_path("preview.png").string();
   } else {
     *mesh_line = "no surface was fused: no mesh or preview written";
   }
-  return io::write_text_atomically(opt.out / "summary.json", tools::json_text(summary) + "\n");
+  return io::write_text_atomically(set.staged("summary.json"), tools::json_text(summary) + "\n");
 }
 
 bool is_device_input(const fs::path& input) {
@@ -536,6 +542,9 @@ int main(int argc, char** argv) {
     k.width = reader->info().width;
     k.height = reader->info().height;
   }
+  // --out is checked before the scan: a live scan must not find it unwritable at the end.
+  auto outputs = io::OutputSet::begin(opt.out, kOutputs);
+  if (!outputs) return fail(outputs.error().describe());
   const SequenceReader* sequence = reader ? &*reader : nullptr;
   ScanRun run;
   run.imu_fallback = sequence_imu_unusable(opt, sequence);
@@ -553,9 +562,6 @@ int main(int argc, char** argv) {
     if (!opened) return fail(opened.error().describe());
     imu.emplace(std::move(*opened));
   }
-  std::error_code ec;
-  fs::create_directories(opt.out, ec);
-  if (ec) return fail("cannot create " + opt.out.string() + ": " + ec.message());
   std::optional<SessionRecorder> recorder;
   if (!opt.record.empty()) {
     auto opened = open_recorder(opt, rec->config(), sequence);
@@ -589,7 +595,10 @@ int main(int argc, char** argv) {
   if (imu) summary["imu_stream"] = imu->report();
   if (recorder) summary["recording"] = recording;
   std::string mesh_line;
-  if (auto s = write_outputs(opt, *rec, run, summary, &mesh_line); !s) return fail(s.error().describe());
+  if (auto s = write_outputs(*outputs, *rec, run, summary, &mesh_line); !s) {
+    return fail(s.error().describe() + " (the outputs of an earlier run in " + opt.out.string() + " are as they were)");
+  }
+  if (auto s = outputs->commit(); !s) return fail(s.error().describe());
   std::printf("scanned %zu frames on %s: %zu fused, %zu lost, %zu recoveries, %.2f ICP iterations/frame, "
               "%.1f fps",
               stats.frames, rec->device().name.c_str(), stats.fused, stats.lost, stats.recoveries,

@@ -18,6 +18,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "imufusion/image_io.hpp"
 #include "imufusion/sequence.hpp"
 #include "scan_test_fixtures.hpp"
 
@@ -116,6 +117,61 @@ TEST_F(ScanInterruption, ARecordingKilledMidwayIsScannableUpToItsLastFrame) {
   EXPECT_EQ(summary["frames"].get<std::size_t>(), recorded->frame_count());
   EXPECT_EQ(summary["settings"]["imu"], true);
   EXPECT_EQ(summary["lost_frames"], 0) << summary.dump(2);
+}
+
+// A sequence whose depth images hold no measurement: a scan of it fuses nothing.
+fs::path synthesize_empty(const fs::path& root) {
+  const fs::path seq = synthesize(root, "empty", 3, 63);
+  std::istringstream index(read_text(seq / "depth.txt"));
+  std::string line;
+  while (std::getline(index, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    const fs::path image = seq / line.substr(line.find(' ') + 1);
+    auto depth = read_depth_png(image, 5000.0);
+    EXPECT_TRUE(depth.ok());
+    std::fill(depth->data.begin(), depth->data.end(), std::uint16_t{0});
+    EXPECT_TRUE(write_depth_png(image, *depth).ok());
+  }
+  return seq;
+}
+
+TEST_F(ScanInterruption, AUsedOutIsReplacedAsOneSet) {
+  const fs::path room = synthesize(scratch_.path(), "room", 6, 65);
+  ASSERT_EQ(scan(room.string() + " --out " + path("out").string() + " --quiet").exit_code, 0);
+  ASSERT_TRUE(fs::exists(path("out") / "mesh.glb"));
+  const auto run = scan(synthesize_empty(scratch_.path()).string() + " --out " + path("out").string() + " --quiet");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto summary = read_json(path("out") / "summary.json");
+  EXPECT_EQ(summary["mesh_triangles"], 0);
+  for (const char* stale : {"mesh.glb", "mesh.ply", "preview.png", "overview.png"}) {
+    EXPECT_FALSE(fs::exists(path("out") / stale)) << stale << " of the earlier run is still there";
+  }
+  EXPECT_EQ(data_lines(path("out") / "trajectory.txt"), 3u);
+  EXPECT_EQ(temporaries_in(path("out")), 0u);
+}
+
+TEST_F(ScanInterruption, AnUnwritableOutFailsBeforeTheScan) {
+  const fs::path room = synthesize(scratch_.path(), "room", 4, 67);
+  fs::create_directories(path("locked"));
+  fs::permissions(path("locked"), fs::perms::owner_read | fs::perms::owner_exec);
+  // Permissions do not stop root: make the directory immutable instead.
+  std::ofstream probe(path("locked") / "probe");
+  const bool root = probe.good();
+  probe.close();
+  fs::remove(path("locked") / "probe");
+  if (root) {
+    ASSERT_EQ(std::system(("chattr +i " + path("locked").string()).c_str()), 0) << "chattr is needed as root";
+  }
+  const auto run = scan(room.string() + " --out " + path("locked").string() + " --record " + path("rec").string() +
+                        " --quiet");
+  if (root) {
+    EXPECT_EQ(std::system(("chattr -i " + path("locked").string()).c_str()), 0);
+  }
+  fs::permissions(path("locked"), fs::perms::owner_all);
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find("cannot write into the output directory " + path("locked").string()), std::string::npos)
+      << run.err;
+  EXPECT_FALSE(fs::exists(path("rec"))) << "the scan ran before --out was found unwritable";
 }
 
 }  // namespace
