@@ -63,6 +63,7 @@ struct Options {
   std::optional<TranslationModel> translation;
   int recovery_frames = TrackingConfig{}.recovery_frames;
   float voxel_size = 0.01f;
+  std::uint32_t block_capacity = VolumeConfig{}.block_capacity;
   long max_frames = -1;  // scanned (kept) frames at most; -1: all
   std::size_t frame_step = 1;
   std::string device;
@@ -88,7 +89,7 @@ int usage(std::ostream& out, int code) {
          "                      [--estimate-imu-rotation] [--recovery-frames N] [--no-color]\n"
          "                      [--demo-dir DIR] [--demo-frames N] [--quiet] [--depth-mode WxH@FPS]\n"
          "                      [--realtime] [--imu-udp PORT] [--imu-udp-address ADDR] [--record DIR]\n"
-         "                      [--frame-step N]\n"
+         "                      [--frame-step N] [--block-capacity N]\n"
          "Scans SEQUENCE, a camera (openni2:// or openni2://URI) or a recording (FILE.oni) (default:\n"
          "the embedded demo room, synthesized into --demo-dir, default ./demo) and writes DIR (default ./scan)/trajectory.txt, frames.csv, mesh.glb, mesh.ply,\n"
          "preview.png, overview.png and summary.json.\n"
@@ -107,7 +108,10 @@ int usage(std::ostream& out, int code) {
          "  --imu-udp PORT           take the IMU from UDP lines (imu.txt or Sensorstream format) on\n"
          "                           PORT instead of the sequence's imu.txt\n"
          "  --imu-udp-address ADDR   IPv4 address to listen on (default " << ImuUdpOptions{}.address << ")\n"
-         "  --record DIR             write the session's frames and IMU as a sequence into DIR\n";
+         "  --record DIR             write the session's frames and IMU as a sequence into DIR\n"
+         "  --block-capacity N       TSDF blocks the volume holds (8^3 voxels, 4 KiB each; default "
+      << VolumeConfig{}.block_capacity << ");\n"
+         "                           beyond them new surface is not fused (frames.csv pool_full)\n";
   return code;
 }
 
@@ -155,6 +159,9 @@ int parse(int argc, char** argv, Options& opt) {
       } else if (a == "--recovery-frames") {
         if (!integer || *integer < 1 || *integer > 1000) return bad("a positive count");
         opt.recovery_frames = static_cast<int>(*integer);
+      } else if (a == "--block-capacity") {
+        if (!integer || *integer < 1 || *integer > (1 << 21)) return bad("a count 1..2097152");
+        opt.block_capacity = static_cast<std::uint32_t>(*integer);
       } else if (a == "--voxel-size") {
         const auto m = tools::parse_number(v);
         if (!m || *m < 0.001 || *m > 0.5) return bad("metres in [0.001, 0.5]");
@@ -231,6 +238,9 @@ ReconstructorConfig make_config(const Options& opt, const SequenceReader* reader
   ReconstructorConfig config;
   config.intrinsics = k;
   config.volume.voxel_size = opt.voxel_size;
+  config.volume.block_capacity = opt.block_capacity;
+  // The hash table keeps at least 4 slots per block, as the defaults do.
+  while (config.volume.hash_slots < 4ull * opt.block_capacity) config.volume.hash_slots *= 2;
   config.device.selector = opt.device;
   config.use_imu = !opt.no_imu && (opt.imu_udp || (reader != nullptr && reader->has_imu() && sequence_imu));
   config.icp.max_total_iterations =
@@ -256,6 +266,7 @@ struct ScanRun {
   std::vector<std::uint32_t> blocks;
   std::string stopped;  // why the scan ended early, empty when it ran through
   std::string imu_fallback;  // why the sequence's IMU was not used, empty when it was
+  bool pool_full_reported = false;
   std::size_t frames_without_pose = 0;
 };
 
@@ -283,6 +294,9 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
   j["fps"] = stats.fps;
   j["median_frame_ms"] = stats.median_frame_ms;
   j["blocks_allocated"] = rec.allocated_blocks();
+  j["block_capacity"] = rec.config().volume.block_capacity;
+  j["pool_full_frames"] = stats.pool_full_frames;
+  if (stats.pool_full_frames > 0) j["first_pool_full_frame"] = stats.first_pool_full_frame;
   j["volume_bytes_reserved"] = rec.memory_bytes();
   if (!run.stopped.empty()) j["stopped_early"] = run.stopped;
   if (run.frames_without_pose > 0) j["frames_without_pose"] = run.frames_without_pose;
@@ -497,6 +511,13 @@ int scan_frames(const Options& opt, Reconstructor& rec, ScanInputs in, ScanRun& 
     }
     elapsed_ms += (*result)->timings.total_ms;
     if (in.imu) in.imu->observe(**result);
+    if ((*result)->fused && (*result)->integration.pool_full > 0 && !run.pool_full_reported) {
+      run.pool_full_reported = true;
+      std::cerr << (progress ? "\n" : "") << "warning: the volume's block pool (" << rec.config().volume.block_capacity
+                << " blocks) is full from frame " << i << ": surface in new blocks is no longer fused (frames.csv "
+                   "pool_full); scan with a larger --voxel-size (now "
+                << rec.config().volume.voxel_size << " m) or --block-capacity\n";
+    }
     run.frames.push_back(std::move(**result));
     run.blocks.push_back(rec.allocated_blocks());
     if (progress) show_progress(i + 1, in.total, run.frames.back(), 1000.0 * static_cast<double>(run.frames.size()) / elapsed_ms);

@@ -174,5 +174,24 @@ TEST_F(ScanInterruption, AnUnwritableOutFailsBeforeTheScan) {
   EXPECT_FALSE(fs::exists(path("rec"))) << "the scan ran before --out was found unwritable";
 }
 
+TEST_F(ScanInterruption, AFullBlockPoolIsReported) {
+  const fs::path room = synthesize(scratch_.path(), "room", 8, 69);
+  const auto run = scan(room.string() + " --out " + path("out").string() + " --block-capacity 200 --quiet");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.err.find("block pool"), std::string::npos) << run.err;
+  const auto summary = read_json(path("out") / "summary.json");
+  EXPECT_GT(summary["pool_full_frames"].get<int>(), 0);
+  EXPECT_TRUE(summary.contains("first_pool_full_frame"));
+  const std::string csv = read_text(path("out") / "frames.csv");
+  const std::string header = csv.substr(0, csv.find('\n'));
+  EXPECT_NE(header.find(",pool_full,"), std::string::npos) << header;
+  EXPECT_EQ(summary["blocks_allocated"], 200);
+  // The default pool holds the room: nothing is refused.
+  const auto roomy = scan(room.string() + " --out " + path("roomy").string() + " --quiet");
+  ASSERT_EQ(roomy.exit_code, 0) << roomy.err;
+  EXPECT_EQ(read_json(path("roomy") / "summary.json")["pool_full_frames"], 0);
+  EXPECT_EQ(roomy.err.find("block pool"), std::string::npos) << roomy.err;
+}
+
 }  // namespace
 }  // namespace imufusion

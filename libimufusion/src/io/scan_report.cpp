@@ -32,7 +32,7 @@ double median_of(std::vector<double> values) {
 std::string frames_csv_header() {
   return "timestamp,status,pose_source,icp_iterations,residual,inliers,weight_sum,condition,fused,ms,"
          "icp_reliable,icp_reason,icp_directions,imu_disagreement,imu_chi2,imu_agreed,inlier_fraction,pixel_fraction,relocalized,recovery_restarted,imu_rotation,imu_coverage,gyro_bias_x,gyro_bias_y,gyro_bias_z,"
-         "R_camera_imu_estimated,R_camera_imu_sigma_deg,blocks,tx,ty,tz,qx,qy,qz,qw";
+         "R_camera_imu_estimated,R_camera_imu_sigma_deg,blocks,pool_full,tx,ty,tz,qx,qy,qz,qw";
 }
 
 std::string frames_csv_row(const FrameResult& f, std::uint32_t allocated_blocks) {
@@ -57,7 +57,8 @@ std::string frames_csv_row(const FrameResult& f, std::uint32_t allocated_blocks)
   row += std::string(",") + (f.imu.rotation_from_imu ? "1" : "0") + "," + format("%.3f", f.imu.covered_fraction);
   for (int i = 0; i < 3; ++i) row += "," + format("%.6g", f.inertial.gyro_bias[i]);
   row += std::string(",") + (f.inertial.R_camera_imu_estimated ? "1" : "0") + "," +
-         format("%.4g", f.inertial.R_camera_imu_sigma_deg) + "," + std::to_string(allocated_blocks);
+         format("%.4g", f.inertial.R_camera_imu_sigma_deg) + "," + std::to_string(allocated_blocks) + "," +
+         std::to_string(f.fused ? f.integration.pool_full : 0u);
   const Eigen::Vector3d t = f.T_world_camera.translation();
   const Eigen::Quaterniond q(f.T_world_camera.linear());
   for (double v : {t.x(), t.y(), t.z()}) row += "," + format("%.6f", v);
@@ -84,6 +85,7 @@ ScanStatistics summarize_scan(const std::vector<FrameResult>& frames) {
     if (i > 0 && f.status == TrackingStatus::kLost && frames[i - 1].status == TrackingStatus::kRecovering)
       ++s.broken_recoveries;
     s.retracked += f.retracked;
+    if (f.fused && f.integration.pool_full > 0 && s.pool_full_frames++ == 0) s.first_pool_full_frame = i;
     if (f.icp_ran) iterations.push_back(f.icp.quality.iterations);
     if (f.icp_ran && f.status == TrackingStatus::kTracking) tracking_iterations.push_back(f.icp.quality.iterations);
     ms.push_back(f.timings.total_ms);
