@@ -4,7 +4,10 @@
 // fusion into the sparse TSDF volume (Reconstructor). Without INPUT it scans the embedded demo
 // (the synthetic furnished room, synthesized on the first run). Writes into --out DIR:
 // trajectory.txt, frames.csv, mesh.glb, mesh.ply, preview.png, overview.png and summary.json,
-// each atomically; a failure or Ctrl-C mid-scan still writes the outputs of the frames done.
+// as one set that replaces an earlier run's (io/output_set.hpp; --out is checked before the
+// scan); a failure, Ctrl-C or SIGTERM mid-scan still writes the outputs of the frames done.
+// IMU samples no sensor gives are left out (io/imu_gate.hpp); an imu.txt that covers none of
+// the frames is not used.
 // --imu-udp takes the IMU from a UDP stream instead of the sequence (scan_live.hpp); --record
 // writes the session (frames and IMU) as a sequence; --frame-step N scans every Nth frame with
 // all of the IMU (frame_step.hpp).
@@ -34,6 +37,7 @@
 #include "imufusion/source.hpp"
 #include "imufusion/trajectory.hpp"
 #include "io/atomic_file.hpp"
+#include "io/line_appender.hpp"
 #include "io/output_set.hpp"
 #include "io/sequence_check.hpp"
 #include "json_text.hpp"
@@ -261,9 +265,14 @@ ReconstructorConfig make_config(const Options& opt, const SequenceReader* reader
   return config;
 }
 
+// What the scan keeps of its frames: frames.csv's rows go to disk as the frames come, the
+// statistics are summed as they go, so a long scan grows by its trajectory alone.
 struct ScanRun {
-  std::vector<FrameResult> frames;
-  std::vector<std::uint32_t> blocks;
+  std::filesystem::path frames_csv;  // in the output set's staging directory
+  io::LineAppender frames_csv_rows;
+  Status frames_csv_status;  // the first failure to write a row
+  ScanSummary summary;
+  std::optional<FrameResult> last;  // the latest scanned frame
   std::string stopped;  // why the scan ended early, empty when it ran through
   std::string imu_fallback;  // why the sequence's IMU was not used, empty when it was
   bool pool_full_reported = false;
@@ -320,8 +329,8 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
   s["truncation"] = c.volume.truncation();
   s["width"] = c.intrinsics.width;
   s["height"] = c.intrinsics.height;
-  if (!run.frames.empty() && c.use_imu) {
-    const InertialStatus& in = run.frames.back().inertial;
+  if (run.last && c.use_imu) {
+    const InertialStatus& in = run.last->inertial;
     auto& imu = j["imu_estimates"];
     imu["gyro_bias"] = {in.gyro_bias.x(), in.gyro_bias.y(), in.gyro_bias.z()};
     imu["gyro_bias_sigma"] = {in.gyro_bias_sigma.x(), in.gyro_bias_sigma.y(), in.gyro_bias_sigma.z()};
@@ -338,7 +347,7 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
     imu["R_camera_imu_sigma_deg"] = in.R_camera_imu_sigma_deg;
     imu["hand_eye_pairs"] = in.hand_eye_pairs;
   }
-  if (reader != nullptr && reader->has_ground_truth() && run.frames.size() >= 3) {
+  if (reader != nullptr && reader->has_ground_truth() && stats.frames >= 3) {
     auto ate = evaluate_ate(reader->ground_truth(), rec.trajectory());
     if (ate) {
       j["ate"] = {{"rmse", ate->stats.rmse}, {"mean", ate->stats.mean}, {"median", ate->stats.median},
@@ -356,13 +365,12 @@ const std::vector<std::string> kOutputs = {"trajectory.txt", "frames.csv",   "me
 
 // Writes every output of the frames scanned so far into the set's staging directory; returns
 // the first failure.
-Status write_outputs(const io::OutputSet& set, Reconstructor& rec, const ScanRun& run,
+Status write_outputs(const io::OutputSet& set, Reconstructor& rec, ScanRun& run,
                      const nlohmann::json& summary_in, std::string* mesh_line) {
   IMUFUSION_RETURN_IF_ERROR(write_trajectory(set.staged("trajectory.txt"), rec.trajectory(),
                                              "camera-to-world poses of imufusion-scan, one per scanned frame"));
-  std::string csv = frames_csv_header() + "\n";
-  for (std::size_t i = 0; i < run.frames.size(); ++i) csv += frames_csv_row(run.frames[i], run.blocks[i]) + "\n";
-  IMUFUSION_RETURN_IF_ERROR(io::write_text_atomically(set.staged("frames.csv"), csv));
+  IMUFUSION_RETURN_IF_ERROR(run.frames_csv_status);
+  run.frames_csv_rows.close();
   nlohmann::json summary = summary_in;
   auto mesh = rec.extract_mesh();
   if (!mesh) return mesh.error();
@@ -467,7 +475,7 @@ struct ScanInputs {
   const Trajectory& known;
 };
 
-// Scans until the input ends, --frames frames are done, a frame fails or Ctrl-C, then settles a
+// Scans until the input ends, --frames frames are done, a frame fails or SIGINT/SIGTERM, then settles a
 // scan that ends while recovering (Reconstructor::finish). Returns the exit code.
 int scan_frames(const Options& opt, Reconstructor& rec, ScanInputs in, ScanRun& run) {
   const std::size_t limit = frame_limit(opt);
@@ -518,15 +526,20 @@ int scan_frames(const Options& opt, Reconstructor& rec, ScanInputs in, ScanRun& 
                    "pool_full); scan with a larger --voxel-size (now "
                 << rec.config().volume.voxel_size << " m) or --block-capacity\n";
     }
-    run.frames.push_back(std::move(**result));
-    run.blocks.push_back(rec.allocated_blocks());
-    if (progress) show_progress(i + 1, in.total, run.frames.back(), 1000.0 * static_cast<double>(run.frames.size()) / elapsed_ms);
+    if (run.frames_csv_status.ok()) {
+      run.frames_csv_status = run.frames_csv_rows.append(run.frames_csv, frames_csv_header() + "\n",
+                                                         frames_csv_row(**result, rec.allocated_blocks()) + "\n");
+    }
+    run.summary.add(**result);
+    run.last = std::move(**result);
+    const double frames_done = static_cast<double>(run.summary.frames());
+    if (progress) show_progress(i + 1, in.total, *run.last, 1000.0 * frames_done / elapsed_ms);
   }
   if (progress) std::fputc('\n', stderr);
-  if (!run.frames.empty()) {
+  if (run.last) {
     auto placed = rec.finish();
     if (placed) {
-      run.frames.back().retracked += *placed;
+      run.summary.add_retracked(*placed);
     } else if (run.stopped.empty()) {
       run.stopped = "ending the scan: " + placed.error().describe();
       exit_code = 1;
@@ -568,6 +581,7 @@ int main(int argc, char** argv) {
   if (!outputs) return fail(outputs.error().describe());
   const SequenceReader* sequence = reader ? &*reader : nullptr;
   ScanRun run;
+  run.frames_csv = outputs->staged("frames.csv");
   run.imu_fallback = sequence_imu_unusable(opt, sequence);
   if (!run.imu_fallback.empty()) std::cerr << "warning: " << run.imu_fallback << "\n";
   if (sequence != nullptr && (sequence->info().imu_implausible > 0 || sequence->info().imu_time_jumps > 0)) {
@@ -609,9 +623,9 @@ int main(int argc, char** argv) {
     }
     recording = tools::recorder_report(*recorder, finished);
   }
-  if (run.frames.empty()) return fail("no frame was scanned; nothing written");
+  if (!run.last) return fail("no frame was scanned; nothing written");
 
-  const ScanStatistics stats = summarize_scan(run.frames);
+  const ScanStatistics stats = run.summary.statistics();
   nlohmann::json summary = summary_json(opt, *rec, run, stats, sequence, input.string());
   if (imu) summary["imu_stream"] = imu->report();
   if (recorder) summary["recording"] = recording;

@@ -57,4 +57,23 @@ struct ScanStatistics {
 
 ScanStatistics summarize_scan(const std::vector<FrameResult>& frames);
 
+/// summarize_scan one frame at a time, for a scan that does not keep its frames: 12 bytes a
+/// frame (for the medians).
+class ScanSummary {
+ public:
+  void add(const FrameResult& frame);
+  /// Frames placed backward after the last add() (Reconstructor::finish()).
+  void add_retracked(std::size_t frames);
+  std::size_t frames() const { return statistics_.frames; }
+  ScanStatistics statistics() const;
+
+ private:
+  ScanStatistics statistics_;  // the counts; means, medians and fps at statistics()
+  std::vector<float> iterations_, tracking_iterations_, ms_;
+  double total_ms_ = 0;
+  bool in_loss_ = false;
+  std::size_t loss_start_ = 0;
+  TrackingStatus previous_status_ = TrackingStatus::kTracking;
+};
+
 }  // namespace imufusion

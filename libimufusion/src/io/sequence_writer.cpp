@@ -1,12 +1,11 @@
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <utility>
 
 #include "imufusion/image_io.hpp"
 #include "imufusion/sequence.hpp"
 #include "io/atomic_file.hpp"
+#include "io/line_appender.hpp"
 #include "io/text_table.hpp"
 
 namespace imufusion {
@@ -75,39 +74,6 @@ std::string imu_to_camera_text(const Eigen::Isometry3d& T_camera_imu) {
          join_exact({q.x(), q.y(), q.z(), q.w(), t.x(), t.y(), t.z()}) + "\n";
 }
 
-// An index file written line by line (write_as_you_go): created with its header at the first
-// line, each line flushed, so that a killed writer leaves every complete line on disk.
-class Appender {
- public:
-  Appender() = default;
-  Appender(const Appender&) = delete;
-  Appender& operator=(const Appender&) = delete;
-  ~Appender() { close(); }
-
-  Status append(const fs::path& path, const char* header, const std::string& line) {
-    if (file_ == nullptr) {
-      file_ = std::fopen(path.c_str(), "wb");
-      if (file_ == nullptr) return failure("cannot create", path);
-      if (std::fputs(header, file_) < 0) return failure("cannot write", path);
-    }
-    if (std::fputs(line.c_str(), file_) < 0 || std::fflush(file_) != 0) {
-      return failure("cannot write", path);
-    }
-    return {};
-  }
-  void close() {
-    if (file_ != nullptr) std::fclose(file_);
-    file_ = nullptr;
-  }
-
- private:
-  static Error failure(const char* what, const fs::path& path) {
-    return make_error(ErrorCode::kIoError,
-                      std::string(what) + " " + path.string() + ": " + std::strerror(errno));
-  }
-  std::FILE* file_ = nullptr;
-};
-
 }  // namespace
 
 struct SequenceWriter::State {
@@ -121,7 +87,7 @@ struct SequenceWriter::State {
   std::vector<std::pair<std::string, std::string>> info;  // in the order set
   int width = 0, height = 0;
   double depth_scale = 0;
-  Appender depth_log, color_log, imu_log;  // write_as_you_go only
+  io::LineAppender depth_log, color_log, imu_log;  // write_as_you_go only
   bool imu_forgotten = false;              // forget_imu() stopped appending to imu.txt
 
   // info.txt: the values derived from the depth images, then the caller's keys in order.
