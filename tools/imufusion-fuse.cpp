@@ -27,6 +27,7 @@
 #include "imufusion/synth.hpp"
 #include "imufusion/trajectory.hpp"
 #include "io/atomic_file.hpp"
+#include "json_text.hpp"
 #include "overview_pose.hpp"
 
 namespace fs = std::filesystem;
@@ -219,7 +220,7 @@ int main(int argc, char** argv) {
       }
     }
   }
-  if (auto s = io::write_text_atomically(opt.out / "summary.json", summary.dump(2) + "\n"); !s)
+  if (auto s = io::write_text_atomically(opt.out / "summary.json", tools::json_text(summary) + "\n"); !s)
     return fail(s.error().describe());
   std::printf("fused %zu of %zu frames on %s: %u blocks (%.1f MiB of volume), mesh %zu triangles -> %s\n",
               fused, total, fusion->device().name.c_str(), fusion->allocated_blocks(),

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "io/sequence_check.hpp"
+#include "json_text.hpp"
 
 namespace {
 
@@ -103,7 +104,11 @@ void print_summary(const SequenceCheck& check) {
     std::cout << "\n";
     if (check.imu.count >= 2) print_gaps(check.imu, "IMU");
     std::cout << "  depth frames without an IMU sample since the previous frame: "
-              << check.frames_without_imu << "\n";
+              << check.frames_without_imu << "; inside its span: " << check.frames_within_imu
+              << " of " << frames << "\n";
+    std::cout << "  left out: " << info.imu_implausible
+              << " samples beyond a real IMU's range, " << info.imu_time_jumps
+              << " jumps in time\n";
   }
   const Eigen::Quaterniond q(info.T_camera_imu.linear());
   const Eigen::Vector3d t = info.T_camera_imu.translation();
@@ -165,6 +170,9 @@ nlohmann::json summary_json(const SequenceCheck& check) {
     out["imu"] = timing_json(check.imu);
     out["imu"]["spans_depth_frames"] = check.imu_spans_frames;
     out["imu"]["depth_frames_without_samples"] = check.frames_without_imu;
+    out["imu"]["depth_frames_within_span"] = check.frames_within_imu;
+    out["imu"]["implausible_samples"] = info.imu_implausible;
+    out["imu"]["time_jumps"] = info.imu_time_jumps;
   } else {
     out["imu"] = nullptr;
   }
@@ -223,7 +231,7 @@ int main(int argc, char** argv) {
       });
 
   if (json) {
-    std::cout << summary_json(check).dump(2) << "\n";
+    std::cout << imufusion::tools::json_text(summary_json(check)) << "\n";
   } else {
     print_summary(check);
   }

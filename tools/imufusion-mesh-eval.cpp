@@ -17,6 +17,7 @@
 #include "imufusion/synth.hpp"
 #include "imufusion/trajectory.hpp"
 #include "cli_numbers.hpp"
+#include "json_text.hpp"
 
 namespace {
 
@@ -278,7 +279,7 @@ int main(int argc, char** argv) {
         {"completeness", result->completeness},
         {"completeness_threshold_m", result->completeness_threshold},
     };
-    std::cout << out.dump(2) << "\n";
+    std::cout << imufusion::tools::json_text(out) << "\n";
     return 0;
   }
   std::cout << "mesh          " << args.mesh << ": " << mesh->vertices.size() << " vertices, "

@@ -4,7 +4,10 @@
 // fusion into the sparse TSDF volume (Reconstructor). Without INPUT it scans the embedded demo
 // (the synthetic furnished room, synthesized on the first run). Writes into --out DIR:
 // trajectory.txt, frames.csv, mesh.glb, mesh.ply, preview.png, overview.png and summary.json,
-// each atomically; a failure or Ctrl-C mid-scan still writes the outputs of the frames done.
+// as one set that replaces an earlier run's (io/output_set.hpp; --out is checked before the
+// scan); a failure, Ctrl-C or SIGTERM mid-scan still writes the outputs of the frames done.
+// IMU samples no sensor gives are left out (io/imu_gate.hpp); an imu.txt that covers none of
+// the frames is not used.
 // --imu-udp takes the IMU from a UDP stream instead of the sequence (scan_live.hpp); --record
 // writes the session (frames and IMU) as a sequence; --frame-step N scans every Nth frame with
 // all of the IMU (frame_step.hpp).
@@ -34,6 +37,10 @@
 #include "imufusion/source.hpp"
 #include "imufusion/trajectory.hpp"
 #include "io/atomic_file.hpp"
+#include "io/line_appender.hpp"
+#include "io/output_set.hpp"
+#include "io/sequence_check.hpp"
+#include "json_text.hpp"
 #include "overview_pose.hpp"
 #include "scan_live.hpp"
 
@@ -42,8 +49,10 @@ using namespace imufusion;
 
 namespace {
 
+// The signal that asked the scan to stop (SIGINT or SIGTERM), 0 while none did: the scan ends
+// after its current frame and writes every output, as at the end of the input.
 volatile std::sig_atomic_t g_interrupted = 0;
-void on_interrupt(int) { g_interrupted = 1; }
+void on_interrupt(int signal) { g_interrupted = signal; }
 
 struct Options {
   fs::path input;
@@ -58,6 +67,7 @@ struct Options {
   std::optional<TranslationModel> translation;
   int recovery_frames = TrackingConfig{}.recovery_frames;
   float voxel_size = 0.01f;
+  std::uint32_t block_capacity = VolumeConfig{}.block_capacity;
   long max_frames = -1;  // scanned (kept) frames at most; -1: all
   std::size_t frame_step = 1;
   std::string device;
@@ -83,7 +93,7 @@ int usage(std::ostream& out, int code) {
          "                      [--estimate-imu-rotation] [--recovery-frames N] [--no-color]\n"
          "                      [--demo-dir DIR] [--demo-frames N] [--quiet] [--depth-mode WxH@FPS]\n"
          "                      [--realtime] [--imu-udp PORT] [--imu-udp-address ADDR] [--record DIR]\n"
-         "                      [--frame-step N]\n"
+         "                      [--frame-step N] [--block-capacity N]\n"
          "Scans SEQUENCE, a camera (openni2:// or openni2://URI) or a recording (FILE.oni) (default:\n"
          "the embedded demo room, synthesized into --demo-dir, default ./demo) and writes DIR (default ./scan)/trajectory.txt, frames.csv, mesh.glb, mesh.ply,\n"
          "preview.png, overview.png and summary.json.\n"
@@ -102,7 +112,10 @@ int usage(std::ostream& out, int code) {
          "  --imu-udp PORT           take the IMU from UDP lines (imu.txt or Sensorstream format) on\n"
          "                           PORT instead of the sequence's imu.txt\n"
          "  --imu-udp-address ADDR   IPv4 address to listen on (default " << ImuUdpOptions{}.address << ")\n"
-         "  --record DIR             write the session's frames and IMU as a sequence into DIR\n";
+         "  --record DIR             write the session's frames and IMU as a sequence into DIR\n"
+         "  --block-capacity N       TSDF blocks the volume holds (8^3 voxels, 4 KiB each; default "
+      << VolumeConfig{}.block_capacity << ");\n"
+         "                           beyond them new surface is not fused (frames.csv pool_full)\n";
   return code;
 }
 
@@ -150,6 +163,9 @@ int parse(int argc, char** argv, Options& opt) {
       } else if (a == "--recovery-frames") {
         if (!integer || *integer < 1 || *integer > 1000) return bad("a positive count");
         opt.recovery_frames = static_cast<int>(*integer);
+      } else if (a == "--block-capacity") {
+        if (!integer || *integer < 1 || *integer > (1 << 21)) return bad("a count 1..2097152");
+        opt.block_capacity = static_cast<std::uint32_t>(*integer);
       } else if (a == "--voxel-size") {
         const auto m = tools::parse_number(v);
         if (!m || *m < 0.001 || *m > 0.5) return bad("metres in [0.001, 0.5]");
@@ -201,14 +217,36 @@ void show_progress(std::size_t done, std::size_t total, const FrameResult& f, do
   std::fflush(stderr);
 }
 
-// `reader`: the sequence when the input is one (null for a camera or .oni recording).
+// Why the sequence's imu.txt cannot aid the scan (it covers none of the frames, e.g. on another
+// clock), or empty when it can or is not used.
+std::string sequence_imu_unusable(const Options& opt, const SequenceReader* reader) {
+  if (opt.no_imu || opt.imu_udp || reader == nullptr || !reader->has_imu()) return {};
+  const std::vector<double> stamps = reader->timestamps();
+  if (io::frames_within_imu(reader->imu(), stamps) > 0) return {};
+  const auto& imu = reader->imu();
+  char span[160];
+  if (imu.empty()) {
+    std::snprintf(span, sizeof span, "has no usable sample");
+  } else {
+    std::snprintf(span, sizeof span, "(%.3f .. %.3f s) covers none of the %zu frames (%.3f .. %.3f s)",
+                  imu.front().timestamp, imu.back().timestamp, stamps.size(), stamps.front(), stamps.back());
+  }
+  return (reader->info().directory / "imu.txt").string() + " " + span +
+         ": scanning without the IMU (the --no-imu settings)";
+}
+
+// `reader`: the sequence when the input is one (null for a camera or .oni recording);
+// `sequence_imu`: whether its imu.txt can aid the scan.
 ReconstructorConfig make_config(const Options& opt, const SequenceReader* reader, const FrameSource* source,
-                                const Intrinsics& k) {
+                                const Intrinsics& k, bool sequence_imu) {
   ReconstructorConfig config;
   config.intrinsics = k;
   config.volume.voxel_size = opt.voxel_size;
+  config.volume.block_capacity = opt.block_capacity;
+  // The hash table keeps at least 4 slots per block, as the defaults do.
+  while (config.volume.hash_slots < 4ull * opt.block_capacity) config.volume.hash_slots *= 2;
   config.device.selector = opt.device;
-  config.imu.enabled = !opt.no_imu && (opt.imu_udp || (reader != nullptr && reader->has_imu()));
+  config.imu.enabled = !opt.no_imu && (opt.imu_udp || (reader != nullptr && reader->has_imu() && sequence_imu));
   config.icp.max_total_iterations =
       opt.icp_iterations.value_or(config.imu.enabled ? kIcpIterationsWithImu : kIcpIterationsWithoutImu);
   config.tracking.recovery_frames = opt.recovery_frames;
@@ -227,10 +265,17 @@ ReconstructorConfig make_config(const Options& opt, const SequenceReader* reader
   return config;
 }
 
+// What the scan keeps of its frames: frames.csv's rows go to disk as the frames come, the
+// statistics are summed as they go, so a long scan grows by its trajectory alone.
 struct ScanRun {
-  std::vector<FrameResult> frames;
-  std::vector<std::uint32_t> blocks;
+  std::filesystem::path frames_csv;  // in the output set's staging directory
+  io::LineAppender frames_csv_rows;
+  Status frames_csv_status;  // the first failure to write a row
+  ScanSummary summary;
+  std::optional<FrameResult> last;  // the latest scanned frame
   std::string stopped;  // why the scan ended early, empty when it ran through
+  std::string imu_fallback;  // why the sequence's IMU was not used, empty when it was
+  bool pool_full_reported = false;
   std::size_t frames_without_pose = 0;
 };
 
@@ -258,6 +303,9 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
   j["fps"] = stats.fps;
   j["median_frame_ms"] = stats.median_frame_ms;
   j["blocks_allocated"] = rec.allocated_blocks();
+  j["block_capacity"] = rec.config().volume.block_capacity;
+  j["pool_full_frames"] = stats.pool_full_frames;
+  if (stats.pool_full_frames > 0) j["first_pool_full_frame"] = stats.first_pool_full_frame;
   j["volume_bytes_reserved"] = rec.memory_bytes();
   if (!run.stopped.empty()) j["stopped_early"] = run.stopped;
   if (run.frames_without_pose > 0) j["frames_without_pose"] = run.frames_without_pose;
@@ -266,6 +314,11 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
   s["frame_step"] = opt.frame_step;
   s["imu"] = c.imu.enabled;
   s["imu_in_sequence"] = reader != nullptr && reader->has_imu();
+  if (!run.imu_fallback.empty()) s["imu_fallback"] = run.imu_fallback;
+  if (reader != nullptr && reader->has_imu()) {
+    j["imu_rejected"] = {{"implausible", reader->info().imu_implausible},
+                         {"time_jumps", reader->info().imu_time_jumps}};
+  }
   s["imu_source"] = !c.imu.enabled ? "none" : opt.imu_udp ? "udp" : "sequence";
   s["icp_iterations_cap"] = c.icp.max_total_iterations;
   s["recovery_icp_iterations"] = c.recovery.icp_iterations;
@@ -276,8 +329,8 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
   s["truncation"] = c.volume.truncation();
   s["width"] = c.intrinsics.width;
   s["height"] = c.intrinsics.height;
-  if (!run.frames.empty() && c.imu.enabled) {
-    const InertialStatus& in = run.frames.back().inertial;
+  if (run.last && c.imu.enabled) {
+    const InertialStatus& in = run.last->inertial;
     auto& imu = j["imu_estimates"];
     imu["gyro_bias"] = {in.gyro_bias.x(), in.gyro_bias.y(), in.gyro_bias.z()};
     imu["gyro_bias_sigma"] = {in.gyro_bias_sigma.x(), in.gyro_bias_sigma.y(), in.gyro_bias_sigma.z()};
@@ -294,7 +347,7 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
     imu["R_camera_imu_sigma_deg"] = in.R_camera_imu_sigma_deg;
     imu["hand_eye_pairs"] = in.hand_eye_pairs;
   }
-  if (reader != nullptr && reader->has_ground_truth() && run.frames.size() >= 3) {
+  if (reader != nullptr && reader->has_ground_truth() && stats.frames >= 3) {
     auto ate = evaluate_ate(reader->ground_truth(), rec.trajectory());
     if (ate) {
       j["ate"] = {{"rmse", ate->stats.rmse}, {"mean", ate->stats.mean}, {"median", ate->stats.median},
@@ -306,38 +359,42 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
   return j;
 }
 
-// Writes every output of the frames scanned so far; returns the first failure.
-Status write_outputs(const Options& opt, Reconstructor& rec, const ScanRun& run, const nlohmann::json& summary_in,
-                     std::string* mesh_line) {
-  IMUFUSION_RETURN_IF_ERROR(write_trajectory(opt.out / "trajectory.txt", rec.trajectory(),
+// The outputs of a scan, replaced as one set; summary.json, last, marks the set complete.
+const std::vector<std::string> kOutputs = {"trajectory.txt", "frames.csv",   "mesh.glb",    "mesh.ply",
+                                           "preview.png",    "overview.png", "summary.json"};
+
+// Writes every output of the frames scanned so far into the set's staging directory; returns
+// the first failure.
+Status write_outputs(const io::OutputSet& set, Reconstructor& rec, ScanRun& run,
+                     const nlohmann::json& summary_in, std::string* mesh_line) {
+  IMUFUSION_RETURN_IF_ERROR(write_trajectory(set.staged("trajectory.txt"), rec.trajectory(),
                                              "camera-to-world poses of imufusion-scan, one per scanned frame"));
-  std::string csv = frames_csv_header() + "\n";
-  for (std::size_t i = 0; i < run.frames.size(); ++i) csv += frames_csv_row(run.frames[i], run.blocks[i]) + "\n";
-  IMUFUSION_RETURN_IF_ERROR(io::write_text_atomically(opt.out / "frames.csv", csv));
+  IMUFUSION_RETURN_IF_ERROR(run.frames_csv_status);
+  run.frames_csv_rows.close();
   nlohmann::json summary = summary_in;
   auto mesh = rec.extract_mesh();
   if (!mesh) return mesh.error();
   summary["mesh_vertices"] = mesh->vertices.size();
   summary["mesh_triangles"] = mesh->triangles.size();
   if (!mesh->triangles.empty()) {
-    IMUFUSION_RETURN_IF_ERROR(write_glb(opt.out / "mesh.glb", *mesh));
-    IMUFUSION_RETURN_IF_ERROR(write_ply(opt.out / "mesh.ply", *mesh));
+    IMUFUSION_RETURN_IF_ERROR(write_glb(set.staged("mesh.glb"), *mesh));
+    IMUFUSION_RETURN_IF_ERROR(write_ply(set.staged("mesh.ply"), *mesh));
     auto preview = rec.raycast(rec.trajectory().back().T_world_camera);
     if (!preview) return preview.error();
-    IMUFUSION_RETURN_IF_ERROR(write_color_png(opt.out / "preview.png", preview->shaded));
+    IMUFUSION_RETURN_IF_ERROR(write_color_png(set.staged("preview.png"), preview->shaded));
     auto volume = rec.snapshot();
     if (!volume) return volume.error();
     auto overview = rec.raycast(tools::overview_pose(*volume, rec.trajectory().front().T_world_camera,
                                                      rec.config().intrinsics),
                                 std::nullopt, std::pair{0.1f, 100.0f});
     if (!overview) return overview.error();
-    IMUFUSION_RETURN_IF_ERROR(write_color_png(opt.out / "overview.png", overview->shaded));
+    IMUFUSION_RETURN_IF_ERROR(write_color_png(set.staged("overview.png"), overview->shaded));
     *mesh_line = "mesh " + std::to_string(mesh->triangles.size()) + " triangles -> " +
-                 (opt.out / "mesh.glb").string() + ", preview -> " + (opt.out / "preview.png").string();
+                 set.final_path("mesh.glb").string() + ", preview -> " + set.final_path("preview.png").string();
   } else {
     *mesh_line = "no surface was fused: no mesh or preview written";
   }
-  return io::write_text_atomically(opt.out / "summary.json", summary.dump(2) + "\n");
+  return io::write_text_atomically(set.staged("summary.json"), tools::json_text(summary) + "\n");
 }
 
 bool is_device_input(const fs::path& input) {
@@ -418,7 +475,7 @@ struct ScanInputs {
   const Trajectory& known;
 };
 
-// Scans until the input ends, --frames frames are done, a frame fails or Ctrl-C, then settles a
+// Scans until the input ends, --frames frames are done, a frame fails or SIGINT/SIGTERM, then settles a
 // scan that ends while recovering (Reconstructor::finish). Returns the exit code.
 int scan_frames(const Options& opt, Reconstructor& rec, ScanInputs in, ScanRun& run) {
   const std::size_t limit = frame_limit(opt);
@@ -427,8 +484,9 @@ int scan_frames(const Options& opt, Reconstructor& rec, ScanInputs in, ScanRun& 
   double elapsed_ms = 0;
   for (std::size_t i = 0; i < limit; ++i) {
     if (g_interrupted) {
-      run.stopped = "interrupted after " + std::to_string(i) + " frames";
-      exit_code = 130;
+      run.stopped = std::string(g_interrupted == SIGTERM ? "terminated (SIGTERM)" : "interrupted") + " after " +
+                    std::to_string(i) + " frames";
+      exit_code = 128 + g_interrupted;
       break;
     }
     auto next = in.frames.next();
@@ -444,6 +502,7 @@ int scan_frames(const Options& opt, Reconstructor& rec, ScanInputs in, ScanRun& 
     std::vector<ImuSample> imu_raw = frame.imu;
     if (in.imu) frame.imu = in.imu->take(frame.timestamp, &imu_raw);
     if (in.recorder) {
+      if (in.imu) in.recorder->set_imu_clock_offset(in.imu->imu_to_frame_offset());
       in.recorder->push_imu(imu_raw);
       in.recorder->push_frame(frame);
     }
@@ -460,15 +519,27 @@ int scan_frames(const Options& opt, Reconstructor& rec, ScanInputs in, ScanRun& 
     }
     elapsed_ms += (*result)->timings.total_ms;
     if (in.imu) in.imu->observe(**result);
-    run.frames.push_back(std::move(**result));
-    run.blocks.push_back(rec.allocated_blocks());
-    if (progress) show_progress(i + 1, in.total, run.frames.back(), 1000.0 * static_cast<double>(run.frames.size()) / elapsed_ms);
+    if ((*result)->fused && (*result)->integration.pool_full > 0 && !run.pool_full_reported) {
+      run.pool_full_reported = true;
+      std::cerr << (progress ? "\n" : "") << "warning: the volume's block pool (" << rec.config().volume.block_capacity
+                << " blocks) is full from frame " << i << ": surface in new blocks is no longer fused (frames.csv "
+                   "pool_full); scan with a larger --voxel-size (now "
+                << rec.config().volume.voxel_size << " m) or --block-capacity\n";
+    }
+    if (run.frames_csv_status.ok()) {
+      run.frames_csv_status = run.frames_csv_rows.append(run.frames_csv, frames_csv_header() + "\n",
+                                                         frames_csv_row(**result, rec.allocated_blocks()) + "\n");
+    }
+    run.summary.add(**result);
+    run.last = std::move(**result);
+    const double frames_done = static_cast<double>(run.summary.frames());
+    if (progress) show_progress(i + 1, in.total, *run.last, 1000.0 * frames_done / elapsed_ms);
   }
   if (progress) std::fputc('\n', stderr);
-  if (!run.frames.empty()) {
+  if (run.last) {
     auto placed = rec.finish();
     if (placed) {
-      run.frames.back().retracked += *placed;
+      run.summary.add_retracked(*placed);
     } else if (run.stopped.empty()) {
       run.stopped = "ending the scan: " + placed.error().describe();
       exit_code = 1;
@@ -505,8 +576,20 @@ int main(int argc, char** argv) {
     k.width = reader->info().width;
     k.height = reader->info().height;
   }
+  // --out is checked before the scan: a live scan must not find it unwritable at the end.
+  auto outputs = io::OutputSet::begin(opt.out, kOutputs);
+  if (!outputs) return fail(outputs.error().describe());
   const SequenceReader* sequence = reader ? &*reader : nullptr;
-  auto rec = Reconstructor::create(make_config(opt, sequence, source.get(), k));
+  ScanRun run;
+  run.frames_csv = outputs->staged("frames.csv");
+  run.imu_fallback = sequence_imu_unusable(opt, sequence);
+  if (!run.imu_fallback.empty()) std::cerr << "warning: " << run.imu_fallback << "\n";
+  if (sequence != nullptr && (sequence->info().imu_implausible > 0 || sequence->info().imu_time_jumps > 0)) {
+    std::cerr << "warning: " << (sequence->info().directory / "imu.txt").string() << ": left out "
+              << sequence->info().imu_implausible << " samples beyond a real IMU's range and "
+              << sequence->info().imu_time_jumps << " jumps in time\n";
+  }
+  auto rec = Reconstructor::create(make_config(opt, sequence, source.get(), k, run.imu_fallback.empty()));
   if (!rec) return fail(rec.error().describe());
   std::optional<tools::LiveImu> imu;
   if (opt.imu_udp) {
@@ -514,9 +597,6 @@ int main(int argc, char** argv) {
     if (!opened) return fail(opened.error().describe());
     imu.emplace(std::move(*opened));
   }
-  std::error_code ec;
-  fs::create_directories(opt.out, ec);
-  if (ec) return fail("cannot create " + opt.out.string() + ": " + ec.message());
   std::optional<SessionRecorder> recorder;
   if (!opt.record.empty()) {
     auto opened = open_recorder(opt, rec->config(), sequence);
@@ -526,13 +606,13 @@ int main(int argc, char** argv) {
   if (imu && !opt.quiet) std::cerr << "imu: listening on " << imu->endpoint() << std::endl;
 
   std::signal(SIGINT, on_interrupt);
+  std::signal(SIGTERM, on_interrupt);
   const std::size_t limit = frame_limit(opt);
   tools::SteppedFrames frames(source ? nullptr : &*reader, source.get(), opt.frame_step);
   const std::size_t total =
       reader ? std::min(frames.kept_of(reader->frame_count()), limit) : (opt.max_frames > 0 ? limit : 0);
-  ScanRun run;
   int exit_code = scan_frames(opt, *rec, ScanInputs{frames, total, imu, recorder, known}, run);
-  if (!run.stopped.empty()) std::cerr << (exit_code == 130 ? "stopped: " : "error: ") << run.stopped << "\n";
+  if (!run.stopped.empty()) std::cerr << (exit_code > 128 ? "stopped: " : "error: ") << run.stopped << "\n";
   nlohmann::json recording;
   if (recorder) {
     if (imu) recorder->set_imu_clock_offset(imu->imu_to_frame_offset());
@@ -543,14 +623,17 @@ int main(int argc, char** argv) {
     }
     recording = tools::recorder_report(*recorder, finished);
   }
-  if (run.frames.empty()) return fail("no frame was scanned; nothing written");
+  if (!run.last) return fail("no frame was scanned; nothing written");
 
-  const ScanStatistics stats = summarize_scan(run.frames);
+  const ScanStatistics stats = run.summary.statistics();
   nlohmann::json summary = summary_json(opt, *rec, run, stats, sequence, input.string());
   if (imu) summary["imu_stream"] = imu->report();
   if (recorder) summary["recording"] = recording;
   std::string mesh_line;
-  if (auto s = write_outputs(opt, *rec, run, summary, &mesh_line); !s) return fail(s.error().describe());
+  if (auto s = write_outputs(*outputs, *rec, run, summary, &mesh_line); !s) {
+    return fail(s.error().describe() + " (the outputs of an earlier run in " + opt.out.string() + " are as they were)");
+  }
+  if (auto s = outputs->commit(); !s) return fail(s.error().describe());
   std::printf("scanned %zu frames on %s: %zu fused, %zu lost, %zu recoveries, %.2f ICP iterations/frame, "
               "%.1f fps",
               stats.frames, rec->device().name.c_str(), stats.fused, stats.lost, stats.recoveries,

@@ -101,6 +101,8 @@ class LiveImu {
     j["malformed"] = s.malformed;
     j["incomplete"] = s.incomplete;
     j["out_of_order"] = s.out_of_order;
+    j["implausible"] = s.implausible;
+    j["time_jumps"] = s.time_jumps;
     j["overflow"] = s.overflow;
     if (s.first_malformed) j["first_malformed"] = *s.first_malformed;
     j["clock_offset_source"] = to_string(estimate_.source);

@@ -6,19 +6,10 @@
 
 #include <gtest/gtest.h>
 
-#include <arpa/inet.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <unistd.h>
-
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <chrono>
 #include <filesystem>
-#include <sstream>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -30,12 +21,12 @@
 #include "imufusion/synth.hpp"
 #include "imufusion/trajectory.hpp"
 #include "scan_test_fixtures.hpp"
+#include "udp_replay.hpp"
 
 namespace imufusion {
 namespace {
 
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
 
 using test::read_json;
 
@@ -50,21 +41,6 @@ fs::path synthesize(const fs::path& root, const std::string& name, int frames, s
 std::size_t tracked_frames(const nlohmann::json& summary) {
   return summary["frames"].get<std::size_t>() - summary["lost_frames"].get<std::size_t>() -
          summary["recovering_frames"].get<std::size_t>();
-}
-
-// A UDP port that was free a moment ago (the kernel's pick for port 0).
-std::uint16_t free_udp_port() {
-  const int fd = socket(AF_INET, SOCK_DGRAM, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  addr.sin_port = 0;
-  socklen_t length = sizeof addr;
-  const bool ok = bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0 &&
-                  getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &length) == 0;
-  close(fd);
-  EXPECT_TRUE(ok) << "no free UDP port";
-  return ntohs(addr.sin_port);
 }
 
 class ScanLive : public test::ScanToolTest {
@@ -116,55 +92,25 @@ TEST_F(ScanLive, TakesTheImuFromAUdpStreamAtItsRealRate) {
   auto first = reader->frame(0);
   ASSERT_TRUE(first.ok());
   const double t_first_frame = first->timestamp;
-  std::vector<std::pair<double, std::string>> lines;
-  {
-    std::istringstream in(test::read_text(seq / "imu.txt"));
-    std::string line;
-    while (std::getline(in, line)) {
-      if (line.empty() || line[0] == '#') continue;
-      lines.emplace_back(std::stod(line), line);
-    }
-  }
-  ASSERT_FALSE(lines.empty());
+  std::vector<std::pair<double, std::string>> datagrams;
+  for (const auto& [t, line] : test::imu_lines(seq / "imu.txt")) datagrams.emplace_back(t - t_first_frame, line + "\n");
+  ASSERT_FALSE(datagrams.empty());
 
   // Replays imu.txt in real time once the tool listens (its stderr says so), the sample at the
   // first frame's timestamp sent as the first frame is read.
-  const std::uint16_t port = free_udp_port();
-  std::atomic<bool> done{false};
-  std::atomic<std::size_t> sent{0};
-  const fs::path tool_err = path("tool_stderr.txt");
-  std::thread sender([&] {
-    const auto give_up = Clock::now() + std::chrono::seconds(300);
-    while (!done && test::read_text(tool_err).find("listening on") == std::string::npos) {
-      if (Clock::now() > give_up) return;
-      std::this_thread::sleep_for(std::chrono::milliseconds(2));
-    }
-    const int fd = socket(AF_INET, SOCK_DGRAM, 0);
-    sockaddr_in to{};
-    to.sin_family = AF_INET;
-    to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    to.sin_port = htons(port);
-    const auto start = Clock::now();
-    for (const auto& [t, line] : lines) {
-      if (done) break;
-      std::this_thread::sleep_until(start + std::chrono::duration<double>(std::max(0.0, t - t_first_frame)));
-      const std::string datagram = line + "\n";
-      if (sendto(fd, datagram.data(), datagram.size(), 0, reinterpret_cast<sockaddr*>(&to), sizeof to) > 0) ++sent;
-    }
-    close(fd);
-  });
+  const std::uint16_t port = test::free_udp_port();
+  test::UdpReplay sender(port, path("tool_stderr.txt"), datagrams);
   const test::ToolRun run = scan(seq.string() + " --realtime --imu-udp " + std::to_string(port) + " --out " +
                                  path("out").string());
-  done = true;
-  sender.join();
+  sender.stop();
   ASSERT_EQ(run.exit_code, 0) << run.err;
-  ASSERT_GT(sent.load(), 0u) << "the tool never said it was listening: " << run.err;
+  ASSERT_GT(sender.sent(), 0u) << "the tool never said it was listening: " << run.err;
 
   const nlohmann::json summary = read_json(path("out") / "summary.json");
   ASSERT_TRUE(summary.contains("imu_stream")) << summary.dump(2);
   const auto& stream = summary["imu_stream"];
   EXPECT_GT(stream["samples"].get<std::size_t>(), 0u);
-  EXPECT_LE(stream["samples"].get<std::size_t>(), sent.load());
+  EXPECT_LE(stream["samples"].get<std::size_t>(), sender.sent());
   EXPECT_EQ(stream["malformed"], 0);
   EXPECT_NE(stream["clock_offset_source"], "none");
   EXPECT_GE(stream["clock_offset_standard_error_s"].get<double>(), 0.0);

@@ -43,6 +43,22 @@ LiveSession make_session() {
   return session;
 }
 
+// The scanner's loop: the IMU that arrived since the last frame, then the frame. Returns the IMU
+// samples pushed (those up to the last frame).
+std::size_t push_session(SessionRecorder& recorder, const LiveSession& session) {
+  std::size_t imu_pushed = 0;
+  for (const Frame& frame : session.frames) {
+    std::vector<ImuSample> batch;
+    while (imu_pushed < session.imu.size() &&
+           session.imu[imu_pushed].timestamp + session.offset <= frame.timestamp) {
+      batch.push_back(session.imu[imu_pushed++]);
+    }
+    recorder.push_imu(batch);
+    EXPECT_TRUE(recorder.push_frame(frame));
+  }
+  return imu_pushed;
+}
+
 TEST(SessionRecorder, RecordsASessionThatReadsBackBitExactly) {
   TempDir dir;
   const LiveSession session = make_session();
@@ -52,18 +68,8 @@ TEST(SessionRecorder, RecordsASessionThatReadsBackBitExactly) {
   recorder->set_T_camera_imu(synth::default_T_camera_imu());
   recorder->set_info("source", "openni2://");
   recorder->set_imu_clock_offset(session.offset - 0.25);  // an early estimate...
-  std::size_t imu_pushed = 0;
-  for (const Frame& frame : session.frames) {
-    // The scanner's loop: the IMU that arrived since the last frame, then the frame. The queue
-    // holds the whole session, so nothing is dropped.
-    std::vector<ImuSample> batch;
-    while (imu_pushed < session.imu.size() &&
-           session.imu[imu_pushed].timestamp + session.offset <= frame.timestamp) {
-      batch.push_back(session.imu[imu_pushed++]);
-    }
-    recorder->push_imu(batch);
-    EXPECT_TRUE(recorder->push_frame(frame));
-  }
+  // The queue holds the whole session, so nothing is dropped.
+  const std::size_t imu_pushed = push_session(*recorder, session);
   recorder->push_imu({session.imu.begin() + static_cast<std::ptrdiff_t>(imu_pushed),
                       session.imu.end()});
   recorder->push_imu({session.imu.front()});  // stale: dropped
@@ -142,6 +148,37 @@ TEST(SessionRecorder, FinishSurfacesTheFirstWriteError) {
   EXPECT_EQ(recorder->finish().error().message, finished.error().message);
   EXPECT_EQ(recorder->stats().frames_written, 0u);
   EXPECT_FALSE(recorder->push_frame(session.frames[2]));
+}
+
+// A recording that never reaches finish() (the process killed, the disk full) is a sequence up
+// to its last complete frame: index lines, calibration, info (depth_scale) and the IMU are on
+// disk as the frames go.
+TEST(SessionRecorder, ARecordingThatNeverFinishesReadsBackUpToItsLastFrame) {
+  TempDir dir;
+  const LiveSession session = make_session();
+  std::size_t imu_before_last_frame = 0;
+  {
+    auto recorder = SessionRecorder::create(dir / "live");
+    ASSERT_TRUE(recorder.ok()) << recorder.error().describe();
+    recorder->set_intrinsics(session.intrinsics);
+    recorder->set_info("source", "openni2://");
+    recorder->set_imu_clock_offset(session.offset);
+    imu_before_last_frame = push_session(*recorder, session);
+    // Gone without finish(): the worker drains its queue as the process would until killed.
+  }
+  auto reader = SequenceReader::open(dir / "live");
+  ASSERT_TRUE(reader.ok()) << reader.error().describe();
+  ASSERT_EQ(reader->frame_count(), session.frames.size());
+  ASSERT_TRUE(reader->intrinsics().has_value());
+  EXPECT_EQ(reader->intrinsics()->fx, session.intrinsics.fx);
+  EXPECT_EQ(reader->info().info.at("source"), "openni2://");
+  auto last = reader->frame(session.frames.size() - 1);
+  ASSERT_TRUE(last.ok()) << last.error().describe();
+  EXPECT_EQ(last->depth.data, session.frames.back().depth.data);
+  EXPECT_EQ(last->depth.depth_scale, session.frames.back().depth.depth_scale);
+  ASSERT_EQ(reader->imu().size(), imu_before_last_frame);
+  EXPECT_EQ(reader->imu().back().timestamp,
+            session.imu[imu_before_last_frame - 1].timestamp + session.offset);
 }
 
 TEST(SessionRecorder, RefusesAnExistingNonEmptyDirectory) {

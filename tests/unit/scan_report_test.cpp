@@ -56,5 +56,35 @@ TEST(SummarizeScan, AScanThatEndsWhileRecoveringHasNoRecoveryAndNoBreak) {
   EXPECT_TRUE(s.recovery_frames.empty());
 }
 
+// imufusion-scan sums its statistics frame by frame instead of keeping every FrameResult (1 KiB
+// each): the same figures, the frames placed at finish() included.
+TEST(ScanSummary, FrameByFrameGivesWhatSummarizeScanGives) {
+  std::vector<FrameResult> scan = frames({T, T, L, L, R, L, L, R, R, T, T}, {9});
+  for (std::size_t i = 0; i < scan.size(); ++i) scan[i].timings.total_ms = 10.0 + static_cast<double>(i % 4);
+  scan[3].fused = true;
+  scan[3].integration.pool_full = 5;
+  scan[6].fused = true;
+  scan[6].integration.pool_full = 1;
+  ScanSummary summary;
+  for (const FrameResult& f : scan) summary.add(f);
+  summary.add_retracked(4);
+  scan.back().retracked += 4;
+  const ScanStatistics a = summary.statistics(), b = summarize_scan(scan);
+  EXPECT_EQ(summary.frames(), scan.size());
+  EXPECT_EQ(a.frames, b.frames);
+  EXPECT_EQ(a.fused, 2u);
+  EXPECT_EQ(a.lost, b.lost);
+  EXPECT_EQ(a.broken_recoveries, b.broken_recoveries);
+  EXPECT_EQ(a.recovery_frames, b.recovery_frames);
+  EXPECT_EQ(a.retracked, 4u);
+  EXPECT_EQ(b.retracked, 4u);
+  EXPECT_EQ(a.pool_full_frames, 2u);
+  EXPECT_EQ(a.first_pool_full_frame, 3u);
+  EXPECT_DOUBLE_EQ(a.median_icp_iterations, b.median_icp_iterations);
+  EXPECT_DOUBLE_EQ(a.mean_icp_iterations, b.mean_icp_iterations);
+  EXPECT_DOUBLE_EQ(a.median_frame_ms, 11.0);
+  EXPECT_DOUBLE_EQ(a.fps, b.fps);
+}
+
 }  // namespace
 }  // namespace imufusion

@@ -43,6 +43,21 @@ enum class ImuLineKind { kSample, kIncomplete, kMalformed, kEmpty };
 /// Sensorstream line without accelerometer or gyroscope; kEmpty a blank or `#` comment line.
 ImuLineKind parse_imu_line(std::string_view line, ImuSample* sample);
 
+/// Bounds of a real measurement: a sample beyond them (a corrupt line, a broken sensor) is
+/// rejected and counted, never used; so is a sample that jumps in time (see max_interval).
+struct ImuSampleLimits {
+  /// Largest |rate| on any gyro axis, rad/s; default 35 (2000 deg/s, the full scale of phone
+  /// and depth-camera gyros, and 5.5 turns a second, beyond any hand-held motion).
+  double max_gyro = 35.0;
+  /// Largest |specific force| on any accelerometer axis, m/s^2; default 160 (16 g full scale).
+  double max_accel = 160.0;
+  /// A sample more than this after the last accepted one (seconds; default 1) is held until
+  /// `jump_confirmations` (default 3) samples continue from it; if the stream goes on from
+  /// before it instead, it was a jump in time and is rejected. A stream starts the same way.
+  double max_interval = 1.0;
+  int jump_confirmations = 3;
+};
+
 /// One received sample with the host time its datagram arrived (host_clock_now()).
 struct ReceivedImuSample {
   ImuSample sample;         // on the phone's clock
@@ -58,6 +73,7 @@ struct ImuUdpOptions {
   /// Samples held for take_samples(); beyond this the oldest are dropped (counted in
   /// `overflow`), so a caller that stops polling cannot exhaust memory (200 Hz: ~5 minutes).
   std::size_t max_pending = 65536;
+  ImuSampleLimits limits;
 };
 
 /// Counters since open(); a sample or line is counted once.
@@ -67,13 +83,15 @@ struct ImuStreamStats {
   std::size_t malformed = 0;     // lines that are not a valid line of either format
   std::size_t incomplete = 0;    // valid Sensorstream lines without accelerometer + gyroscope
   std::size_t out_of_order = 0;  // samples whose timestamp is not after the previous one
+  std::size_t implausible = 0;   // samples beyond ImuSampleLimits' rates and forces, or NaN/inf
+  std::size_t time_jumps = 0;    // samples rejected as a jump in time (ImuSampleLimits)
   std::size_t overflow = 0;      // accepted samples dropped because nobody took them
   std::optional<std::string> first_malformed;  // the first malformed line (up to 120 bytes)
 };
 
 /// Receives IMU lines on a UDP socket in a background thread. Never blocks the caller: the
-/// scanner polls take_samples() once per frame. Malformed lines and samples out of order are
-/// counted and dropped, never fatal. Move-only; the destructor stops the thread.
+/// scanner polls take_samples() once per frame. Malformed lines, samples out of order,
+/// implausible samples and jumps in time are counted and dropped, never fatal. Move-only; the destructor stops the thread.
 class ImuUdpListener {
  public:
   /// Binds the socket and starts the thread. Fails (kInvalidArgument) on an address that is

@@ -32,9 +32,11 @@ struct RecorderStats {
   std::size_t imu_dropped = 0;     // not after the previous sample (out of order), not finite
 };
 
-/// Writes a live session: depth and colour PNGs as they come (worker thread), imu.txt,
-/// calibration.txt, imu_to_camera.txt and info.txt at finish(). Move-only. Destroying a
-/// recorder without finish() stops the worker and leaves images without index files.
+/// Writes a live session as it goes (worker thread): each frame's depth and colour PNGs, then
+/// their depth.txt and rgb.txt lines and the IMU samples pushed before the frame (imu.txt),
+/// appended and flushed; calibration.txt, imu_to_camera.txt and info.txt with the first frame.
+/// A recording that never reaches finish() (killed, disk full) is readable up to its last
+/// complete frame. finish() rewrites imu.txt on the final clock offset. Move-only.
 class SessionRecorder {
  public:
   /// Creates the directory (SequenceWriter::create) and starts the worker.
@@ -51,9 +53,9 @@ class SessionRecorder {
   bool push_frame(Frame frame);
   /// IMU samples on the IMU's own clock; finish() writes them shifted by the clock offset.
   void push_imu(const std::vector<ImuSample>& samples);
-  /// t_host = t_imu + offset (seconds), e.g. ClockOffsetEstimate::offset; the latest value
-  /// set before finish() is applied to all of imu.txt and written to info.txt
-  /// (`imu_clock_offset`).
+  /// t_host = t_imu + offset (seconds), e.g. ClockOffsetEstimate::offset: applied to the
+  /// samples pushed after it as they are written; the latest value set before finish() is
+  /// applied to all of imu.txt and written to info.txt (`imu_clock_offset`).
   void set_imu_clock_offset(double offset);
   /// calibration.txt.
   void set_intrinsics(const Intrinsics& intrinsics);

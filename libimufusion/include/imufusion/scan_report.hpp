@@ -20,6 +20,7 @@ namespace imufusion {
 /// with the ones before it and started the recovery's count again), imu_rotation (0/1: the
 /// seed's rotation came from the gyro), imu_coverage, gyro_bias_x/y/z (rad/s),
 /// R_camera_imu_estimated, R_camera_imu_sigma_deg, blocks (allocated after the frame),
+/// pool_full (blocks the frame touched that the full block pool had no room for: not fused),
 /// tx ty tz qx qy qz qw (T_world_camera).
 std::string frames_csv_header();
 /// One row of frames.csv (no newline). Quality columns are empty when ICP did not run.
@@ -37,6 +38,10 @@ struct ScanStatistics {
   std::size_t relocalizations = 0;  // frames placed by the relocalization search
   std::size_t recovery_restarts = 0;  // recovering frames that started the count again
   std::size_t retracked = 0;  // lost frames placed by ICP backward from their recovery
+  /// Fused frames with blocks the full block pool had no room for (partly fused), and the
+  /// index of the first (when pool_full_frames > 0).
+  std::size_t pool_full_frames = 0;
+  std::size_t first_pool_full_frame = 0;
   double mean_icp_iterations = 0;    // over frames where ICP ran
   double median_icp_iterations = 0;  // over frames where ICP ran
   /// Over tracking frames where ICP ran: the paper's per-frame figure. Lost and recovering
@@ -51,5 +56,24 @@ struct ScanStatistics {
 };
 
 ScanStatistics summarize_scan(const std::vector<FrameResult>& frames);
+
+/// summarize_scan one frame at a time, for a scan that does not keep its frames: 12 bytes a
+/// frame (for the medians).
+class ScanSummary {
+ public:
+  void add(const FrameResult& frame);
+  /// Frames placed backward after the last add() (Reconstructor::finish()).
+  void add_retracked(std::size_t frames);
+  std::size_t frames() const { return statistics_.frames; }
+  ScanStatistics statistics() const;
+
+ private:
+  ScanStatistics statistics_;  // the counts; means, medians and fps at statistics()
+  std::vector<float> iterations_, tracking_iterations_, ms_;
+  double total_ms_ = 0;
+  bool in_loss_ = false;
+  std::size_t loss_start_ = 0;
+  TrackingStatus previous_status_ = TrackingStatus::kTracking;
+};
 
 }  // namespace imufusion

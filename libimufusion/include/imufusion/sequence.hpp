@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "imufusion/imu_stream.hpp"
 #include "imufusion/result.hpp"
 #include "imufusion/types.hpp"
 
@@ -59,8 +60,10 @@ struct SequenceInfo {
 
   Trajectory ground_truth;  // groundtruth.txt (empty when absent)
   bool has_ground_truth = false;
-  std::vector<ImuSample> imu;  // imu.txt (empty when absent)
+  std::vector<ImuSample> imu;  // imu.txt (empty when absent), without the rejected samples
   bool has_imu = false;
+  std::size_t imu_implausible = 0;  // imu.txt samples beyond SequenceOptions::imu_limits
+  std::size_t imu_time_jumps = 0;   // imu.txt samples rejected as jumps in time
   std::vector<AccelerometerSample> accelerometer;  // accelerometer.txt (empty when absent)
 };
 
@@ -76,6 +79,8 @@ struct SequenceOptions {
   /// Intrinsics to use instead of calibration.txt (required when the file is absent). width and
   /// height are ignored: they are taken from the images.
   std::optional<Intrinsics> intrinsics;
+  /// imu.txt samples beyond these, or jumping in time, are left out (counted in SequenceInfo).
+  ImuSampleLimits imu_limits;
 };
 
 /// One depth frame with what belongs to it.
@@ -139,12 +144,17 @@ class SequenceReader {
 
 /// Writes a sequence in the FORMAT.md layout. Images go to disk as they are added (depth/ and
 /// rgb/, PNG, named by timestamp); index and text files are written atomically by finish(). A
-/// writer destroyed without finish() leaves images but no index files.
+/// writer destroyed without finish() leaves images but no index files, unless write_as_you_go.
 class SequenceWriter {
  public:
   struct Options {
     /// Allow a directory that already has content; files of the same name are replaced.
     bool allow_existing = false;
+    /// Append each index line (depth.txt, rgb.txt, imu.txt) as its image or sample is added,
+    /// flushed, and write calibration.txt, imu_to_camera.txt and info.txt as soon as they are
+    /// known: a writer that never reaches finish() (a killed process, a full disk) leaves a
+    /// sequence readable up to its last complete frame. finish() still rewrites every file.
+    bool write_as_you_go = false;
   };
 
   /// Creates `directory` (and parents). Fails when it exists and is not empty, unless allowed.
@@ -163,6 +173,9 @@ class SequenceWriter {
   Status add_color(double timestamp, const ColorImage& image);
   /// Timestamps must increase strictly.
   Status add_imu(const ImuSample& sample);
+  /// Forgets the IMU samples added so far and stops appending to imu.txt: finish() writes only
+  /// those added after (e.g. the session's samples again, on a corrected clock).
+  void forget_imu();
   /// Timestamps must increase strictly.
   Status add_ground_truth(const StampedPose& pose);
   /// calibration.txt (fx fy cx cy must be positive).

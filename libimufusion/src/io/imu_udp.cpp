@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "imufusion/imu_stream.hpp"
+#include "io/imu_gate.hpp"
 
 namespace imufusion {
 namespace {
@@ -39,7 +40,8 @@ struct ImuUdpListener::State {
   mutable std::mutex mutex;  // guards everything below
   std::deque<ReceivedImuSample> pending;
   ImuStreamStats stats;
-  std::optional<double> last_timestamp;
+  std::optional<io::ImuGate> gate;  // set at open(), from options.limits
+  std::vector<ReceivedImuSample> released;
 
   void receive_loop();
   void handle_datagram(std::string_view datagram, double receive_time);
@@ -74,17 +76,20 @@ void ImuUdpListener::State::handle_datagram(std::string_view datagram, double re
       case ImuLineKind::kSample:
         break;
     }
-    if (last_timestamp && !(sample.timestamp > *last_timestamp)) {
+    released.clear();
+    if (gate->push({sample, receive_time}, &released) == io::ImuVerdict::kOutOfOrder) {
       ++stats.out_of_order;
-      continue;
     }
-    last_timestamp = sample.timestamp;
-    ++stats.samples;
-    if (pending.size() >= options.max_pending) {
-      pending.pop_front();
-      ++stats.overflow;
+    stats.implausible = gate->implausible();
+    stats.time_jumps = gate->time_jumps();
+    for (const ReceivedImuSample& accepted : released) {
+      ++stats.samples;
+      if (pending.size() >= options.max_pending) {
+        pending.pop_front();
+        ++stats.overflow;
+      }
+      pending.push_back(accepted);
     }
-    pending.push_back({sample, receive_time});
   }
 }
 
@@ -116,6 +121,7 @@ Result<ImuUdpListener> ImuUdpListener::open(const ImuUdpOptions& options) {
   }
   auto state = std::make_unique<State>();
   state->options = options;
+  state->gate.emplace(options.limits);
   state->socket = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
   const std::string endpoint = options.address + ":" + std::to_string(options.port);
   if (state->socket < 0) {

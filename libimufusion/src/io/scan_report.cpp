@@ -20,7 +20,7 @@ std::string csv_field(std::string text) {
   return text;
 }
 
-double median_of(std::vector<double> values) {
+double median_of(std::vector<float> values) {
   if (values.empty()) return 0;
   std::sort(values.begin(), values.end());
   const std::size_t n = values.size();
@@ -32,7 +32,7 @@ double median_of(std::vector<double> values) {
 std::string frames_csv_header() {
   return "timestamp,status,pose_source,icp_iterations,residual,inliers,weight_sum,condition,fused,ms,"
          "icp_reliable,icp_reason,icp_directions,imu_disagreement,imu_chi2,imu_agreed,inlier_fraction,pixel_fraction,relocalized,recovery_restarted,imu_rotation,imu_coverage,gyro_bias_x,gyro_bias_y,gyro_bias_z,"
-         "R_camera_imu_estimated,R_camera_imu_sigma_deg,blocks,tx,ty,tz,qx,qy,qz,qw";
+         "R_camera_imu_estimated,R_camera_imu_sigma_deg,blocks,pool_full,tx,ty,tz,qx,qy,qz,qw";
 }
 
 std::string frames_csv_row(const FrameResult& f, std::uint32_t allocated_blocks) {
@@ -57,7 +57,8 @@ std::string frames_csv_row(const FrameResult& f, std::uint32_t allocated_blocks)
   row += std::string(",") + (f.imu.rotation_from_imu ? "1" : "0") + "," + format("%.3f", f.imu.covered_fraction);
   for (int i = 0; i < 3; ++i) row += "," + format("%.6g", f.inertial.gyro_bias[i]);
   row += std::string(",") + (f.inertial.R_camera_imu_estimated ? "1" : "0") + "," +
-         format("%.4g", f.inertial.R_camera_imu_sigma_deg) + "," + std::to_string(allocated_blocks);
+         format("%.4g", f.inertial.R_camera_imu_sigma_deg) + "," + std::to_string(allocated_blocks) + "," +
+         std::to_string(f.fused ? f.integration.pool_full : 0u);
   const Eigen::Vector3d t = f.T_world_camera.translation();
   const Eigen::Quaterniond q(f.T_world_camera.linear());
   for (double v : {t.x(), t.y(), t.z()}) row += "," + format("%.6f", v);
@@ -65,51 +66,59 @@ std::string frames_csv_row(const FrameResult& f, std::uint32_t allocated_blocks)
   return row;
 }
 
-ScanStatistics summarize_scan(const std::vector<FrameResult>& frames) {
-  ScanStatistics s;
-  s.frames = frames.size();
-  std::vector<double> iterations, tracking_iterations, ms;
-  double total_ms = 0;
-  std::size_t loss_start = 0;
-  bool in_loss = false;
-  for (std::size_t i = 0; i < frames.size(); ++i) {
-    const FrameResult& f = frames[i];
-    if (f.fused) ++s.fused;
-    if (f.status == TrackingStatus::kLost) ++s.lost;
-    if (f.status == TrackingStatus::kRecovering) ++s.recovering;
-    if (f.source == PoseSource::kDeadReckoning) ++s.dead_reckoned;
-    if (f.source == PoseSource::kIcpPartial) ++s.partial;
-    if (f.relocalized) ++s.relocalizations;
-    if (f.recovery_restarted) ++s.recovery_restarts;
-    if (i > 0 && f.status == TrackingStatus::kLost && frames[i - 1].status == TrackingStatus::kRecovering)
-      ++s.broken_recoveries;
-    s.retracked += f.retracked;
-    if (f.icp_ran) iterations.push_back(f.icp.quality.iterations);
-    if (f.icp_ran && f.status == TrackingStatus::kTracking) tracking_iterations.push_back(f.icp.quality.iterations);
-    ms.push_back(f.timings.total_ms);
-    total_ms += f.timings.total_ms;
-    if (f.status != TrackingStatus::kTracking && !in_loss) {
-      in_loss = true;
-      loss_start = i;
-    }
-    if (f.recovered) {
-      ++s.recoveries;
-      if (in_loss) s.recovery_frames.push_back(i - loss_start);
-      in_loss = false;
-    }
+void ScanSummary::add(const FrameResult& f) {
+  ScanStatistics& s = statistics_;
+  const std::size_t i = s.frames++;
+  if (f.fused) ++s.fused;
+  if (f.status == TrackingStatus::kLost) ++s.lost;
+  if (f.status == TrackingStatus::kRecovering) ++s.recovering;
+  if (f.source == PoseSource::kDeadReckoning) ++s.dead_reckoned;
+  if (f.source == PoseSource::kIcpPartial) ++s.partial;
+  if (f.relocalized) ++s.relocalizations;
+  if (f.recovery_restarted) ++s.recovery_restarts;
+  if (i > 0 && f.status == TrackingStatus::kLost && previous_status_ == TrackingStatus::kRecovering)
+    ++s.broken_recoveries;
+  previous_status_ = f.status;
+  s.retracked += f.retracked;
+  if (f.fused && f.integration.pool_full > 0 && s.pool_full_frames++ == 0) s.first_pool_full_frame = i;
+  if (f.icp_ran) iterations_.push_back(static_cast<float>(f.icp.quality.iterations));
+  if (f.icp_ran && f.status == TrackingStatus::kTracking)
+    tracking_iterations_.push_back(static_cast<float>(f.icp.quality.iterations));
+  ms_.push_back(static_cast<float>(f.timings.total_ms));
+  total_ms_ += f.timings.total_ms;
+  if (f.status != TrackingStatus::kTracking && !in_loss_) {
+    in_loss_ = true;
+    loss_start_ = i;
   }
-  if (!iterations.empty()) {
-    for (double v : iterations) s.mean_icp_iterations += v;
-    s.mean_icp_iterations /= static_cast<double>(iterations.size());
-    s.median_icp_iterations = median_of(iterations);
+  if (f.recovered) {
+    ++s.recoveries;
+    if (in_loss_) s.recovery_frames.push_back(i - loss_start_);
+    in_loss_ = false;
   }
-  if (!tracking_iterations.empty()) s.median_icp_iterations_tracking = median_of(tracking_iterations);
-  if (!ms.empty()) {
-    s.mean_frame_ms = total_ms / static_cast<double>(ms.size());
-    s.median_frame_ms = median_of(ms);
+}
+
+void ScanSummary::add_retracked(std::size_t frames) { statistics_.retracked += frames; }
+
+ScanStatistics ScanSummary::statistics() const {
+  ScanStatistics s = statistics_;
+  if (!iterations_.empty()) {
+    for (float v : iterations_) s.mean_icp_iterations += v;
+    s.mean_icp_iterations /= static_cast<double>(iterations_.size());
+    s.median_icp_iterations = median_of(iterations_);
   }
-  s.fps = total_ms > 0 ? 1000.0 * static_cast<double>(frames.size()) / total_ms : 0;
+  if (!tracking_iterations_.empty()) s.median_icp_iterations_tracking = median_of(tracking_iterations_);
+  if (!ms_.empty()) {
+    s.mean_frame_ms = total_ms_ / static_cast<double>(ms_.size());
+    s.median_frame_ms = median_of(ms_);
+  }
+  s.fps = total_ms_ > 0 ? 1000.0 * static_cast<double>(s.frames) / total_ms_ : 0;
   return s;
+}
+
+ScanStatistics summarize_scan(const std::vector<FrameResult>& frames) {
+  ScanSummary summary;
+  for (const FrameResult& f : frames) summary.add(f);
+  return summary.statistics();
 }
 
 }  // namespace imufusion

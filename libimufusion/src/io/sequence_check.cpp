@@ -82,7 +82,24 @@ void check_imu(SequenceCheck& check, const std::vector<double>& depth_stamps) {
     check.warnings.push_back("no IMU (imu.txt absent): the scan will run without inertial aid");
     return;
   }
-  if (stamps.empty() || depth_stamps.empty()) return;
+  if (info.imu_implausible > 0 || info.imu_time_jumps > 0) {
+    check.warnings.push_back("imu.txt: " + std::to_string(info.imu_implausible) +
+                             " samples beyond a real IMU's range (or not finite) and " +
+                             std::to_string(info.imu_time_jumps) +
+                             " jumps in time are left out");
+  }
+  if (depth_stamps.empty()) return;
+  check.frames_within_imu = frames_within_imu(info.imu, depth_stamps);
+  if (check.frames_within_imu == 0) {
+    check.warnings.push_back(
+        "imu.txt covers none of the depth frames" +
+        (stamps.empty() ? std::string(" (no usable sample)")
+                        : " (" + seconds(stamps.front()) + " .. " + seconds(stamps.back()) +
+                              " against " + seconds(depth_stamps.front()) + " .. " +
+                              seconds(depth_stamps.back()) + ")") +
+        ": the scan will run without the IMU");
+    return;
+  }
   check.imu_spans_frames =
       stamps.front() <= depth_stamps.front() && stamps.back() >= depth_stamps.back();
   for (std::size_t i = 1; i < depth_stamps.size(); ++i) {
@@ -153,6 +170,14 @@ StreamTiming stream_timing(const std::vector<double>& stamps) {
     }
   }
   return timing;
+}
+
+std::size_t frames_within_imu(const std::vector<ImuSample>& imu,
+                              const std::vector<double>& depth_stamps) {
+  if (imu.empty()) return 0;
+  const double first = imu.front().timestamp, last = imu.back().timestamp;
+  return static_cast<std::size_t>(std::count_if(depth_stamps.begin(), depth_stamps.end(),
+                                                [&](double t) { return t >= first && t <= last; }));
 }
 
 SequenceCheck check_sequence(const std::filesystem::path& directory,

@@ -35,6 +35,11 @@ inline constexpr double kGroundTruthMaxDifference = 0.02;
 
 StreamTiming stream_timing(const std::vector<double>& stamps);
 
+/// Depth frames (stamps in seconds, ascending) inside the span of the IMU samples: those the
+/// IMU can aid. 0 means a scan gains nothing from the IMU.
+std::size_t frames_within_imu(const std::vector<ImuSample>& imu,
+                              const std::vector<double>& depth_stamps);
+
 struct SequenceCheck {
   SequenceIndex index;  // metadata and every problem (text side and image decoding)
   StreamTiming depth, imu;
@@ -44,6 +49,7 @@ struct SequenceCheck {
   std::size_t color_matched = 0;             // depth frames with an associated colour frame
   std::size_t frames_without_imu = 0;        // frames after the first with no sample in (prev, t]
   bool imu_spans_frames = false;             // first IMU stamp <= first depth, last >= last depth
+  std::size_t frames_within_imu = 0;         // depth frames inside the IMU's span
   std::size_t frames_with_ground_truth = 0;  // a pose within kGroundTruthMaxDifference
   bool ground_truth_spans_frames = false;    // first and last depth stamp inside the GT span
   /// Things that do not prevent a scan but may spoil it, one sentence each.

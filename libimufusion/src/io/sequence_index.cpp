@@ -5,6 +5,7 @@
 #include <tuple>
 
 #include "imufusion/trajectory.hpp"
+#include "io/imu_gate.hpp"
 #include "io/png_codec.hpp"
 #include "io/text_table.hpp"
 
@@ -15,6 +16,13 @@ namespace fs = std::filesystem;
 
 // |q| may be off 1 by rounding of the printed decimals; beyond this the line is corrupt.
 constexpr double kQuaternionNormTolerance = 1e-3;
+
+// The field of view of any depth camera lies between these (degrees); fx = width / (2 tan(fov/2)).
+constexpr double kMinFieldOfViewDeg = 3.0, kMaxFieldOfViewDeg = 170.0;
+
+double focal_for_fov(int pixels, double fov_deg) {
+  return pixels / (2.0 * std::tan(0.5 * fov_deg * 3.14159265358979323846 / 180.0));
+}
 
 class Loader {
  public:
@@ -44,6 +52,7 @@ class Loader {
     load_accelerometer();
     load_ground_truth();
     determine_image_size();
+    check_intrinsics_plausible();
     if (info.intrinsics) {
       info.intrinsics->width = info.width;
       info.intrinsics->height = info.height;
@@ -236,6 +245,47 @@ class Loader {
     }
   }
 
+  // Focal lengths must give a camera's field of view over the image, and the principal point
+  // must lie on it: nonsense there makes fusion allocate without bound (1/fx).
+  void check_intrinsics_plausible() {
+    const SequenceInfo& info = index_.info;
+    if (!info.intrinsics || info.width <= 0 || info.height <= 0) return;
+    const Intrinsics& k = *info.intrinsics;
+    const std::string source = info.intrinsics_from_file
+                                   ? (dir_ / "calibration.txt").string() + ": "
+                                   : std::string("intrinsics passed by the caller: ");
+    const struct {
+      const char* focal_name;
+      double focal;
+      const char* centre_name;
+      double centre;
+      int pixels;
+      const char* extent;
+    } axes[] = {{"fx", k.fx, "cx", k.cx, info.width, "width"},
+                {"fy", k.fy, "cy", k.cy, info.height, "height"}};
+    for (const auto& a : axes) {
+      const double low = focal_for_fov(a.pixels, kMaxFieldOfViewDeg);
+      const double high = focal_for_fov(a.pixels, kMinFieldOfViewDeg);
+      if (!(a.focal >= low && a.focal <= high)) {
+        add(make_error(ErrorCode::kInvalidArgument,
+                       source + a.focal_name + " " + format_exact(a.focal) +
+                           " is implausible for an image " + std::to_string(a.pixels) +
+                           " pixels in " + a.extent + ": a camera's field of view of " +
+                           format_exact(kMinFieldOfViewDeg) + " to " +
+                           format_exact(kMaxFieldOfViewDeg) + " degrees needs " + a.focal_name +
+                           " in [" + format_exact(std::round(low * 100) / 100) + ", " +
+                           format_exact(std::round(high * 100) / 100) + "] pixels"));
+      }
+      if (!(a.centre >= 0 && a.centre <= a.pixels)) {
+        add(make_error(ErrorCode::kInvalidArgument,
+                       source + a.centre_name + " " + format_exact(a.centre) +
+                           " lies outside the image (" + a.extent + " " +
+                           std::to_string(a.pixels) + " pixels): the principal point must be " +
+                           "on the image, in [0, " + std::to_string(a.pixels) + "]"));
+      }
+    }
+  }
+
   void load_imu_to_camera() {
     const fs::path path = dir_ / "imu_to_camera.txt";
     auto lines = lines_of("imu_to_camera.txt", false);
@@ -270,17 +320,26 @@ class Loader {
     SequenceInfo& info = index_.info;
     info.has_imu = true;
     info.imu.reserve(lines->size());
+    ImuGate gate(options_.imu_limits);
+    std::vector<ReceivedImuSample> released;
     for (const TextLine& line : *lines) {
       double v[7];
       if (!parse_numbers(line, path, {"timestamp", "wx", "wy", "wz", "ax", "ay", "az"}, v)) {
         continue;
       }
-      if (!check_increasing(info.imu.empty() ? 0 : info.imu.back().timestamp, !info.imu.empty(),
-                            v[0], line, path)) {
-        continue;
+      const double latest = gate.latest();
+      released.clear();
+      const ReceivedImuSample sample{ImuSample{v[0], {v[1], v[2], v[3]}, {v[4], v[5], v[6]}}, 0};
+      if (gate.push(sample, &released) == ImuVerdict::kOutOfOrder) {
+        check_increasing(latest, true, v[0], line, path);
       }
-      info.imu.push_back(ImuSample{v[0], {v[1], v[2], v[3]}, {v[4], v[5], v[6]}});
+      for (const ReceivedImuSample& accepted : released) info.imu.push_back(accepted.sample);
     }
+    released.clear();
+    gate.finish(&released);
+    for (const ReceivedImuSample& accepted : released) info.imu.push_back(accepted.sample);
+    info.imu_implausible = gate.implausible();
+    info.imu_time_jumps = gate.time_jumps();
   }
 
   void load_accelerometer() {

@@ -5,6 +5,7 @@
 #include "imufusion/image_io.hpp"
 #include "imufusion/sequence.hpp"
 #include "io/atomic_file.hpp"
+#include "io/line_appender.hpp"
 #include "io/text_table.hpp"
 
 namespace imufusion {
@@ -48,10 +49,36 @@ struct IndexLine {
   std::string name;
 };
 
+constexpr const char* kDepthHeader = "# depth maps\n# timestamp filename\n";
+constexpr const char* kColorHeader = "# color images\n# timestamp filename\n";
+constexpr const char* kImuHeader = "# timestamp wx wy wz ax ay az  (rad/s, m/s^2, IMU frame)\n";
+
+std::string index_line(const IndexLine& line) {
+  return io::format_exact(line.timestamp) + " " + line.name + "\n";
+}
+
+std::string imu_line(const ImuSample& m) {
+  return join_exact({m.timestamp, m.gyro.x(), m.gyro.y(), m.gyro.z(), m.accel.x(), m.accel.y(),
+                     m.accel.z()}) +
+         "\n";
+}
+
+std::string calibration_text(const Intrinsics& k) {
+  return join_exact({k.fx, k.fy, k.cx, k.cy}) + "\n";
+}
+
+std::string imu_to_camera_text(const Eigen::Isometry3d& T_camera_imu) {
+  const Eigen::Quaterniond q(T_camera_imu.linear());
+  const Eigen::Vector3d& t = T_camera_imu.translation();
+  return "# qx qy qz qw tx ty tz  (maps IMU-frame coordinates into the camera frame)\n" +
+         join_exact({q.x(), q.y(), q.z(), q.w(), t.x(), t.y(), t.z()}) + "\n";
+}
+
 }  // namespace
 
 struct SequenceWriter::State {
   fs::path directory;
+  bool as_you_go = false;  // Options::write_as_you_go
   std::vector<IndexLine> depth, color;
   std::vector<ImuSample> imu;
   Trajectory ground_truth;
@@ -60,6 +87,11 @@ struct SequenceWriter::State {
   std::vector<std::pair<std::string, std::string>> info;  // in the order set
   int width = 0, height = 0;
   double depth_scale = 0;
+  io::LineAppender depth_log, color_log, imu_log;  // write_as_you_go only
+  bool imu_forgotten = false;              // forget_imu() stopped appending to imu.txt
+
+  // info.txt: the values derived from the depth images, then the caller's keys in order.
+  Result<std::string> info_text() const;
 };
 
 SequenceWriter::SequenceWriter(std::unique_ptr<State> state) : state_(std::move(state)) {}
@@ -93,6 +125,7 @@ Result<SequenceWriter> SequenceWriter::create(const fs::path& directory, const O
   }
   auto state = std::make_unique<State>();
   state->directory = directory;
+  state->as_you_go = options.write_as_you_go;
   return SequenceWriter(std::move(state));
 }
 
@@ -129,7 +162,14 @@ Status SequenceWriter::add_depth(double timestamp, const DepthImage& image) {
   }
   IMUFUSION_RETURN_IF_ERROR(write_depth_png(s.directory / name, image));
   s.depth.push_back({timestamp, name});
-  return {};
+  if (!s.as_you_go) return {};
+  // info.txt carries depth_scale: on disk before the first frame that needs it.
+  if (s.depth.size() == 1) {
+    auto info = s.info_text();
+    if (!info.ok()) return info.error();
+    IMUFUSION_RETURN_IF_ERROR(io::write_text_atomically(s.directory / "info.txt", *info));
+  }
+  return s.depth_log.append(s.directory / "depth.txt", kDepthHeader, index_line(s.depth.back()));
 }
 
 Status SequenceWriter::add_color(double timestamp, const ColorImage& image) {
@@ -150,7 +190,8 @@ Status SequenceWriter::add_color(double timestamp, const ColorImage& image) {
   }
   IMUFUSION_RETURN_IF_ERROR(write_color_png(s.directory / name, image));
   s.color.push_back({timestamp, name});
-  return {};
+  if (!s.as_you_go) return {};
+  return s.color_log.append(s.directory / "rgb.txt", kColorHeader, index_line(s.color.back()));
 }
 
 Status SequenceWriter::add_imu(const ImuSample& sample) {
@@ -163,7 +204,14 @@ Status SequenceWriter::add_imu(const ImuSample& sample) {
                                                        " is not finite");
   }
   s.imu.push_back(sample);
-  return {};
+  if (!s.as_you_go || s.imu_forgotten) return {};
+  return s.imu_log.append(s.directory / "imu.txt", kImuHeader, imu_line(sample));
+}
+
+void SequenceWriter::forget_imu() {
+  state_->imu.clear();
+  state_->imu_log.close();
+  state_->imu_forgotten = true;
 }
 
 Status SequenceWriter::add_ground_truth(const StampedPose& pose) {
@@ -188,7 +236,8 @@ Status SequenceWriter::set_intrinsics(const Intrinsics& k) {
                                                        " must be positive and finite");
   }
   state_->intrinsics = k;
-  return {};
+  if (!state_->as_you_go) return {};
+  return io::write_text_atomically(state_->directory / "calibration.txt", calibration_text(k));
 }
 
 Status SequenceWriter::set_T_camera_imu(const Eigen::Isometry3d& T_camera_imu) {
@@ -199,7 +248,9 @@ Status SequenceWriter::set_T_camera_imu(const Eigen::Isometry3d& T_camera_imu) {
                       state_->directory.string() + ": T_camera_imu is not a rigid transform");
   }
   state_->T_camera_imu = T_camera_imu;
-  return {};
+  if (!state_->as_you_go) return {};
+  return io::write_text_atomically(state_->directory / "imu_to_camera.txt",
+                                   imu_to_camera_text(T_camera_imu));
 }
 
 Status SequenceWriter::set_info(const std::string& key, const std::string& value) {
@@ -210,31 +261,31 @@ Status SequenceWriter::set_info(const std::string& key, const std::string& value
                       state_->directory.string() + ": info key '" + key +
                           "' must be one word and its value one non-empty line");
   }
+  bool replaced = false;
   for (auto& [existing, old_value] : state_->info) {
     if (existing == key) {
       old_value = value;
-      return {};
+      replaced = true;
     }
   }
-  state_->info.emplace_back(key, value);
-  return {};
+  if (!replaced) state_->info.emplace_back(key, value);
+  // Before the first depth frame, info.txt waits for the image size and depth_scale.
+  if (!state_->as_you_go || state_->depth.empty()) return {};
+  auto info = state_->info_text();
+  if (!info.ok()) return info.error();
+  return io::write_text_atomically(state_->directory / "info.txt", *info);
 }
 
-Status SequenceWriter::finish() {
-  State& s = *state_;
-  const fs::path& dir = s.directory;
-  if (s.depth.empty()) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      dir.string() + ": no depth frame was added; a sequence needs one");
-  }
+Result<std::string> SequenceWriter::State::info_text() const {
+  const fs::path& dir = directory;
   // depth_scale, width and height describe the images written; a caller's value must agree.
   const std::pair<const char*, double> derived[] = {
-      {"depth_scale", s.depth_scale}, {"width", s.width}, {"height", s.height}};
-  std::string info = "";
+      {"depth_scale", depth_scale}, {"width", width}, {"height", height}};
+  std::string text;
   for (const auto& [key, value] : derived) {
-    info += std::string(key) + " " + io::format_exact(value) + "\n";
+    text += std::string(key) + " " + io::format_exact(value) + "\n";
   }
-  for (const auto& [key, value] : s.info) {
+  for (const auto& [key, value] : info) {
     bool is_derived = false;
     for (const auto& [derived_key, derived_value] : derived) {
       if (key != derived_key) continue;
@@ -247,27 +298,36 @@ Status SequenceWriter::finish() {
                                                            io::format_exact(derived_value) + ")");
       }
     }
-    if (!is_derived) info += key + " " + value + "\n";
+    if (!is_derived) text += key + " " + value + "\n";
   }
+  return text;
+}
 
-  std::string depth = "# depth maps\n# timestamp filename\n";
-  for (const auto& line : s.depth)
-    depth += io::format_exact(line.timestamp) + " " + line.name + "\n";
+Status SequenceWriter::finish() {
+  State& s = *state_;
+  const fs::path& dir = s.directory;
+  if (s.depth.empty()) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      dir.string() + ": no depth frame was added; a sequence needs one");
+  }
+  auto info = s.info_text();
+  if (!info.ok()) return info.error();
+  // Each file is replaced whole: the appended ones, written as the frames came, too.
+  s.depth_log.close();
+  s.color_log.close();
+  s.imu_log.close();
+
+  std::string depth = kDepthHeader;
+  for (const auto& line : s.depth) depth += index_line(line);
   IMUFUSION_RETURN_IF_ERROR(io::write_text_atomically(dir / "depth.txt", depth));
   if (!s.color.empty()) {
-    std::string color = "# color images\n# timestamp filename\n";
-    for (const auto& line : s.color) {
-      color += io::format_exact(line.timestamp) + " " + line.name + "\n";
-    }
+    std::string color = kColorHeader;
+    for (const auto& line : s.color) color += index_line(line);
     IMUFUSION_RETURN_IF_ERROR(io::write_text_atomically(dir / "rgb.txt", color));
   }
   if (!s.imu.empty()) {
-    std::string imu = "# timestamp wx wy wz ax ay az  (rad/s, m/s^2, IMU frame)\n";
-    for (const ImuSample& m : s.imu) {
-      imu += join_exact({m.timestamp, m.gyro.x(), m.gyro.y(), m.gyro.z(), m.accel.x(), m.accel.y(),
-                         m.accel.z()}) +
-             "\n";
-    }
+    std::string imu = kImuHeader;
+    for (const ImuSample& m : s.imu) imu += imu_line(m);
     IMUFUSION_RETURN_IF_ERROR(io::write_text_atomically(dir / "imu.txt", imu));
   }
   if (!s.ground_truth.empty()) {
@@ -281,19 +341,14 @@ Status SequenceWriter::finish() {
     IMUFUSION_RETURN_IF_ERROR(io::write_text_atomically(dir / "groundtruth.txt", gt));
   }
   if (s.intrinsics) {
-    const Intrinsics& k = *s.intrinsics;
-    IMUFUSION_RETURN_IF_ERROR(io::write_text_atomically(
-        dir / "calibration.txt", join_exact({k.fx, k.fy, k.cx, k.cy}) + "\n"));
+    IMUFUSION_RETURN_IF_ERROR(
+        io::write_text_atomically(dir / "calibration.txt", calibration_text(*s.intrinsics)));
   }
   if (s.T_camera_imu) {
-    const Eigen::Quaterniond q(s.T_camera_imu->linear());
-    const Eigen::Vector3d& t = s.T_camera_imu->translation();
-    IMUFUSION_RETURN_IF_ERROR(io::write_text_atomically(
-        dir / "imu_to_camera.txt",
-        "# qx qy qz qw tx ty tz  (maps IMU-frame coordinates into the camera frame)\n" +
-            join_exact({q.x(), q.y(), q.z(), q.w(), t.x(), t.y(), t.z()}) + "\n"));
+    IMUFUSION_RETURN_IF_ERROR(
+        io::write_text_atomically(dir / "imu_to_camera.txt", imu_to_camera_text(*s.T_camera_imu)));
   }
-  return io::write_text_atomically(dir / "info.txt", info);
+  return io::write_text_atomically(dir / "info.txt", *info);
 }
 
 }  // namespace imufusion

@@ -25,7 +25,7 @@ std::vector<std::string> split_fields(std::string_view text) {
 }
 
 Result<std::vector<TextLine>> read_text_table(const std::filesystem::path& path) {
-  auto bytes = read_file_bytes(path);
+  auto bytes = read_file_bytes(path, kMaxTextFileBytes);
   if (!bytes.ok()) return bytes.error();
   const std::string_view content(reinterpret_cast<const char*>(bytes->data()), bytes->size());
   std::vector<TextLine> lines;
