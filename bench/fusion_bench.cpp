@@ -34,11 +34,15 @@ int main(int argc, char** argv) {
   float voxel_size = 0.01f;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
-    if (a == "--frames") frames = std::atoi(argv[i + 1]);
-    else if (a == "--raycast-every") raycast_every = std::max(1, std::atoi(argv[i + 1]));
-    else if (a == "--voxel-size") voxel_size = static_cast<float>(std::atof(argv[i + 1]));
+    if (a == "--frames")
+      frames = std::atoi(argv[i + 1]);
+    else if (a == "--raycast-every")
+      raycast_every = std::max(1, std::atoi(argv[i + 1]));
+    else if (a == "--voxel-size")
+      voxel_size = static_cast<float>(std::atof(argv[i + 1]));
     else {
-      std::fprintf(stderr, "usage: fusion_bench [--frames N] [--raycast-every N] [--voxel-size M]\n");
+      std::fprintf(stderr,
+                   "usage: fusion_bench [--frames N] [--raycast-every N] [--voxel-size M]\n");
       return 2;
     }
   }
@@ -57,7 +61,8 @@ int main(int argc, char** argv) {
   std::uint64_t steps = 0, rays = 0, marched = 0;
   for (int f = 0; f < frames; ++f) {
     const Eigen::Isometry3d T = motion.pose_at(f / 30.0);
-    const synth::RenderedFrame frame = synth::render_frame(scene, T, k, synth::SensorModel{}, 100 + f, true);
+    const synth::RenderedFrame frame =
+        synth::render_frame(scene, T, k, synth::SensorModel{}, 100 + f, true);
     std::vector<KernelTiming> timings;
     auto stats = fusion->integrate(frame.depth, &frame.color, T, &timings);
     if (!stats) {
@@ -96,21 +101,26 @@ int main(int argc, char** argv) {
   if (!snapshot) return 1;
   const auto m0 = std::chrono::steady_clock::now();
   auto mesh = extract_mesh(*snapshot);
-  const double mesh_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - m0).count();
+  const double mesh_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - m0).count();
   if (!mesh) return 1;
   std::printf("device %s, 640x480, voxel %.3f m, %d frames of the synthetic room\n",
               fusion->device().name.c_str(), voxel_size, frames);
-  for (const char* kernel :
-       {"volume_allocate", "volume_integrate", "volume_raycast_range", "volume_raycast", "raycast total"})
-    std::printf("  %-20s median %8.2f ms per frame (%zu samples)\n", kernel, median(ms[kernel]), ms[kernel].size());
-  std::printf("  march steps per ray: mean %.1f over all rays, %.1f over the %.1f%% of rays that march\n",
-              double(steps) / double(std::max<std::uint64_t>(rays, 1)),
-              double(steps) / double(std::max<std::uint64_t>(marched, 1)),
-              100.0 * double(marched) / double(std::max<std::uint64_t>(rays, 1)));
+  for (const char* kernel : {"volume_allocate", "volume_integrate", "volume_raycast_range",
+                             "volume_raycast", "raycast total"})
+    std::printf("  %-20s median %8.2f ms per frame (%zu samples)\n", kernel, median(ms[kernel]),
+                ms[kernel].size());
+  std::printf(
+      "  march steps per ray: mean %.1f over all rays, %.1f over the %.1f%% of rays that march\n",
+      double(steps) / double(std::max<std::uint64_t>(rays, 1)),
+      double(steps) / double(std::max<std::uint64_t>(marched, 1)),
+      100.0 * double(marched) / double(std::max<std::uint64_t>(rays, 1)));
   std::printf("  %-17s %8.2f ms (CPU, %zu blocks -> %zu triangles)\n", "marching cubes", mesh_ms,
               snapshot->blocks.size(), mesh->triangles.size());
-  std::printf("  blocks allocated %u, voxel memory in use %.1f MiB (8 bytes per voxel), pool + table %.1f MiB, pool-full events %llu\n",
-              fusion->allocated_blocks(), fusion->allocated_blocks() * 512.0 * 8 / (1024 * 1024),
-              double(fusion->memory_bytes()) / (1024 * 1024), static_cast<unsigned long long>(pool_full));
+  std::printf(
+      "  blocks allocated %u, voxel memory in use %.1f MiB (8 bytes per voxel), pool + table %.1f "
+      "MiB, pool-full events %llu\n",
+      fusion->allocated_blocks(), fusion->allocated_blocks() * 512.0 * 8 / (1024 * 1024),
+      double(fusion->memory_bytes()) / (1024 * 1024), static_cast<unsigned long long>(pool_full));
   return 0;
 }

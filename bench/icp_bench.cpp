@@ -3,10 +3,10 @@
 // time per association and per reduction at each pyramid level (mean per iteration), and
 // iterations run. Args: iteration cap (30: the no-IMU setting, 1: the paper's IMU setting).
 
+#include <benchmark/benchmark.h>
+
 #include <map>
 #include <string>
-
-#include <benchmark/benchmark.h>
 
 #include "imufusion/icp.hpp"
 #include "imufusion/synth.hpp"
@@ -32,7 +32,8 @@ void BM_Icp640x480(benchmark::State& state) {
   Eigen::Isometry3d start = Eigen::Isometry3d::Identity();
   if (config.max_total_iterations == 1) {
     Eigen::Isometry3d offset = Eigen::Isometry3d::Identity();
-    offset.linear() = Eigen::AngleAxisd(0.5 * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
+    offset.linear() =
+        Eigen::AngleAxisd(0.5 * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
     offset.translation() = Eigen::Vector3d(0.005, 0, 0);
     start = T_w_ref.inverse() * T_w_cur * offset;
   }

@@ -81,10 +81,14 @@ struct Score {
   double precision() const { return tp + fp > 0 ? double(tp) / (tp + fp) : 1.0; }
   double recall() const { return tp + fn > 0 ? double(tp) / (tp + fn) : 1.0; }
   void add(bool reliable, bool good) {
-    if (reliable && good) ++tp;
-    else if (reliable) ++fp;
-    else if (good) ++fn;
-    else ++tn;
+    if (reliable && good)
+      ++tp;
+    else if (reliable)
+      ++fp;
+    else if (good)
+      ++fn;
+    else
+      ++tn;
   }
 };
 
@@ -94,7 +98,9 @@ Score score(const std::vector<Sample>& samples, const IcpReliabilityThresholds& 
             const std::string& source = "own", const std::string& start = "") {
   Score s;
   for (const Sample& x : samples) {
-    if (x.source != source || (parity >= 0 && x.seed % 2 != parity) || (!start.empty() && x.start != start)) continue;
+    if (x.source != source || (parity >= 0 && x.seed % 2 != parity) ||
+        (!start.empty() && x.start != start))
+      continue;
     s.add(judge_icp(x.q, rule, nullptr), x.good);
   }
   return s;
@@ -103,7 +109,8 @@ Score score(const std::vector<Sample>& samples, const IcpReliabilityThresholds& 
 // The scanner's decision over one source's samples in time order: the residual test widened to
 // the frame's depth noise, the pairing tests lowered to what the source's earlier IMU-like pairs
 // that passed paired. `start` non-empty: counts the pairs from that kind of start only.
-Score score_adaptive(const std::vector<Sample>& samples, const std::string& source, const std::string& start = "") {
+Score score_adaptive(const std::vector<Sample>& samples, const std::string& source,
+                     const std::string& start = "") {
   Score s;
   PairingReference pairing;
   for (const Sample& x : samples) {
@@ -125,8 +132,9 @@ Eigen::Isometry3d perturb(std::mt19937_64& rng, double max_deg, double min_deg, 
   Eigen::Vector3d axis(n(rng), n(rng), n(rng));
   Eigen::Vector3d dir(n(rng), n(rng), n(rng));
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = Eigen::AngleAxisd((min_deg + (max_deg - min_deg) * u(rng)) * M_PI / 180.0,
-                                 axis.normalized()).toRotationMatrix();
+  T.linear() =
+      Eigen::AngleAxisd((min_deg + (max_deg - min_deg) * u(rng)) * M_PI / 180.0, axis.normalized())
+          .toRotationMatrix();
   T.translation() = dir.normalized() * (min_m + (max_m - min_m) * u(rng));
   return T;
 }
@@ -194,10 +202,12 @@ bool own_generator_samples(IcpTracker& tracker, const Intrinsics& k, int seeds, 
                            const IcpConfig& config, std::vector<Sample>& samples) {
   const synth::SensorModel sensor;
   for (int seed = 101; seed < 101 + seeds; ++seed) {
-    for (synth::SceneKind kind : {synth::SceneKind::kRoom, synth::SceneKind::kWall, synth::SceneKind::kFast}) {
+    for (synth::SceneKind kind :
+         {synth::SceneKind::kRoom, synth::SceneKind::kWall, synth::SceneKind::kFast}) {
       const synth::Scene scene = synth::make_scene(kind, static_cast<std::uint64_t>(seed));
       const synth::CameraMotion motion(kind, static_cast<std::uint64_t>(seed));
-      std::mt19937_64 rng(static_cast<std::uint64_t>(seed) * 7919u + static_cast<std::uint64_t>(kind));
+      std::mt19937_64 rng(static_cast<std::uint64_t>(seed) * 7919u +
+                          static_cast<std::uint64_t>(kind));
       std::uniform_real_distribution<double> time(0.5, 9.0);
       for (int p = 0; p < pairs; ++p) {
         double t = time(rng);
@@ -217,9 +227,12 @@ bool own_generator_samples(IcpTracker& tracker, const Intrinsics& k, int seeds, 
         base.seed = seed;
         base.t = t;
         base.gap = gap;
-        if (!measure_pair(tracker, ref, cur, T_w_ref.inverse() * T_w_cur, rng, base, config, samples)) return false;
+        if (!measure_pair(tracker, ref, cur, T_w_ref.inverse() * T_w_cur, rng, base, config,
+                          samples))
+          return false;
       }
-      std::cerr << "seed " << seed << " " << synth::to_string(kind) << ": " << samples.size() << " samples\n";
+      std::cerr << "seed " << seed << " " << synth::to_string(kind) << ": " << samples.size()
+                << " samples\n";
     }
   }
   return true;
@@ -243,7 +256,8 @@ bool sequence_samples(const std::filesystem::path& dir, int pairs, const IcpConf
     std::cerr << tracker.error().describe() << "\n";
     return false;
   }
-  const std::string source = dir.filename().empty() ? dir.parent_path().filename().string() : dir.filename().string();
+  const std::string source =
+      dir.filename().empty() ? dir.parent_path().filename().string() : dir.filename().string();
   std::mt19937_64 rng(std::hash<std::string>{}(source));
   const std::vector<double> stamps = reader->timestamps();
   const std::size_t n = stamps.size() - 4;
@@ -251,7 +265,8 @@ bool sequence_samples(const std::filesystem::path& dir, int pairs, const IcpConf
     const int gap = std::array<int, 3>{1, 2, 4}[static_cast<std::size_t>(p % 3)];
     const std::size_t i = static_cast<std::size_t>(p) * n / static_cast<std::size_t>(pairs);
     const StampedPose* a = find_pose(reader->ground_truth(), stamps[i]);
-    const StampedPose* b = find_pose(reader->ground_truth(), stamps[i + static_cast<std::size_t>(gap)]);
+    const StampedPose* b =
+        find_pose(reader->ground_truth(), stamps[i + static_cast<std::size_t>(gap)]);
     if (a == nullptr || b == nullptr) continue;
     auto ref = reader->frame(i);
     auto cur = reader->frame(i + static_cast<std::size_t>(gap));
@@ -264,8 +279,8 @@ bool sequence_samples(const std::filesystem::path& dir, int pairs, const IcpConf
     base.scene = source;
     base.t = stamps[i];
     base.gap = gap;
-    if (!measure_pair(*tracker, ref->depth, cur->depth, a->T_world_camera.inverse() * b->T_world_camera, rng, base,
-                      config, samples))
+    if (!measure_pair(*tracker, ref->depth, cur->depth,
+                      a->T_world_camera.inverse() * b->T_world_camera, rng, base, config, samples))
       return false;
   }
   std::cerr << source << ": " << samples.size() << " samples in all\n";
@@ -274,13 +289,15 @@ bool sequence_samples(const std::filesystem::path& dir, int pairs, const IcpConf
 
 void write_csv(const std::string& path, const std::vector<Sample>& samples) {
   std::ofstream out(path);
-  out << "source,scene,seed,start,t,gap,good,err_t,err_r_deg,condition,residual_per_weight,inliers,inlier_fraction,"
+  out << "source,scene,seed,start,t,gap,good,err_t,err_r_deg,condition,residual_per_weight,inliers,"
+         "inlier_fraction,"
          "pixel_fraction,weight_sum,iterations,noise_variance\n";
   for (const Sample& s : samples)
-    out << s.source << ',' << s.scene << ',' << s.seed << ',' << s.start << ',' << s.t << ',' << s.gap << ','
-        << s.good << ',' << s.err_t << ',' << s.err_r << ',' << s.q.condition << ',' << s.q.residual_per_weight << ','
-        << s.q.inliers << ',' << s.q.inlier_fraction << ',' << s.q.pixel_fraction << ',' << s.q.weight_sum << ','
-        << s.q.iterations << ',' << s.noise_variance << '\n';
+    out << s.source << ',' << s.scene << ',' << s.seed << ',' << s.start << ',' << s.t << ','
+        << s.gap << ',' << s.good << ',' << s.err_t << ',' << s.err_r << ',' << s.q.condition << ','
+        << s.q.residual_per_weight << ',' << s.q.inliers << ',' << s.q.inlier_fraction << ','
+        << s.q.pixel_fraction << ',' << s.q.weight_sum << ',' << s.q.iterations << ','
+        << s.noise_variance << '\n';
 }
 
 // Samples written by write_csv (--csv), to report on them again without measuring.
@@ -326,7 +343,8 @@ bool read_csv(const std::string& path, std::vector<Sample>& samples) {
 
 // The rule of highest recall (then precision) at `target_precision` on the own generator's odd
 // seeds, over a grid: kappa and r/sum(w) on log scales, both inlier fractions linear.
-std::optional<IcpReliabilityThresholds> choose_rule(const std::vector<Sample>& samples, double target_precision) {
+std::optional<IcpReliabilityThresholds> choose_rule(const std::vector<Sample>& samples,
+                                                    double target_precision) {
   std::vector<double> kappas, rpws, fractions, pixel_fractions;
   for (double e = 1.0; e <= 4.0001; e += 0.125) kappas.push_back(std::pow(10.0, e));
   kappas.push_back(std::numeric_limits<double>::infinity());
@@ -354,15 +372,17 @@ std::optional<IcpReliabilityThresholds> choose_rule(const std::vector<Sample>& s
 }
 
 void print_score(const char* what, const Score& s) {
-  std::printf("  %-34s precision %.3f recall %.3f (tp %d fp %d fn %d tn %d)\n", what, s.precision(), s.recall(), s.tp,
-              s.fp, s.fn, s.tn);
+  std::printf("  %-34s precision %.3f recall %.3f (tp %d fp %d fn %d tn %d)\n", what, s.precision(),
+              s.recall(), s.tp, s.fp, s.fn, s.tn);
 }
 
 void report(const std::vector<Sample>& samples, std::optional<IcpReliabilityThresholds> chosen,
             const std::vector<std::string>& sources) {
   auto describe = [](const char* name, const IcpReliabilityThresholds& t) {
-    std::printf("%-26s kappa <= %-9.4g r/sum(w) <= %-9.3g inlier fraction >= %.2f pixel fraction >= %.2f\n", name,
-                t.max_condition, t.max_residual_per_weight, t.min_inlier_fraction, t.min_pixel_fraction);
+    std::printf(
+        "%-26s kappa <= %-9.4g r/sum(w) <= %-9.3g inlier fraction >= %.2f pixel fraction >= %.2f\n",
+        name, t.max_condition, t.max_residual_per_weight, t.min_inlier_fraction,
+        t.min_pixel_fraction);
   };
   const IcpReliabilityThresholds defaults;
   describe("literature (VoxelHashing)", rule(150.0, 1.5, 0.0, 0.0));
@@ -383,7 +403,8 @@ void report(const std::vector<Sample>& samples, std::optional<IcpReliabilityThre
     std::printf("defaults, pixel fraction >= %.2f\n", pf);
     print_score("own generator, held-out seeds", score(samples, t, 0));
   }
-  std::printf("per source (fixed: the defaults; scanner: noise-widened residual, pairing reference):\n");
+  std::printf(
+      "per source (fixed: the defaults; scanner: noise-widened residual, pairing reference):\n");
   for (const std::string& source : sources) {
     int n = 0, good = 0;
     for (const Sample& s : samples)
@@ -400,12 +421,13 @@ void report(const std::vector<Sample>& samples, std::optional<IcpReliabilityThre
 }
 
 // Measures the own generator's pairs and each sequence's: the device's name and the samples.
-std::optional<std::pair<std::string, std::vector<Sample>>> measure(int seeds, int pairs, int width, int height,
-                                                                   int sequence_pairs,
-                                                                   const std::vector<std::filesystem::path>& sequences) {
+std::optional<std::pair<std::string, std::vector<Sample>>> measure(
+    int seeds, int pairs, int width, int height, int sequence_pairs,
+    const std::vector<std::filesystem::path>& sequences) {
   const Intrinsics k = synth::default_intrinsics(width, height);
   IcpConfig config;
-  config.reliability = rule(std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(), 0.0, 0.0);
+  config.reliability = rule(std::numeric_limits<double>::infinity(),
+                            std::numeric_limits<double>::infinity(), 0.0, 0.0);
   config.reliability.min_inliers = 0;
   auto tracker = IcpTracker::create(config, PreprocessConfig{}, k);
   if (!tracker) {
@@ -429,17 +451,26 @@ int main(int argc, char** argv) {
   std::vector<std::filesystem::path> sequences;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i], v = argv[i + 1];
-    if (a == "--seeds") seeds = std::atoi(v.c_str());
-    else if (a == "--pairs") pairs = std::atoi(v.c_str());
-    else if (a == "--precision") target_precision = std::atof(v.c_str());
-    else if (a == "--csv") csv = v;
-    else if (a == "--from-csv") from_csv = v;
-    else if (a == "--sequence") sequences.emplace_back(v);
-    else if (a == "--sequence-pairs") sequence_pairs = std::atoi(v.c_str());
-    else if (a == "--size" && std::sscanf(v.c_str(), "%dx%d", &width, &height) == 2) {}
-    else {
-      std::cerr << "usage: icp_calibration [--seeds N] [--pairs N] [--size WxH] [--precision P] [--csv FILE]\n"
-                   "                       [--sequence DIR]... [--sequence-pairs N] [--from-csv FILE]\n";
+    if (a == "--seeds")
+      seeds = std::atoi(v.c_str());
+    else if (a == "--pairs")
+      pairs = std::atoi(v.c_str());
+    else if (a == "--precision")
+      target_precision = std::atof(v.c_str());
+    else if (a == "--csv")
+      csv = v;
+    else if (a == "--from-csv")
+      from_csv = v;
+    else if (a == "--sequence")
+      sequences.emplace_back(v);
+    else if (a == "--sequence-pairs")
+      sequence_pairs = std::atoi(v.c_str());
+    else if (a == "--size" && std::sscanf(v.c_str(), "%dx%d", &width, &height) == 2) {
+    } else {
+      std::cerr
+          << "usage: icp_calibration [--seeds N] [--pairs N] [--size WxH] [--precision P] [--csv "
+             "FILE]\n"
+             "                       [--sequence DIR]... [--sequence-pairs N] [--from-csv FILE]\n";
       return 2;
     }
   }
@@ -455,13 +486,16 @@ int main(int argc, char** argv) {
   }
   std::vector<std::string> sources;
   for (const Sample& s : samples)
-    if (std::find(sources.begin(), sources.end(), s.source) == sources.end()) sources.push_back(s.source);
+    if (std::find(sources.begin(), sources.end(), s.source) == sources.end())
+      sources.push_back(s.source);
   if (!csv.empty()) write_csv(csv, samples);
 
   int good = 0;
   for (const Sample& s : samples) good += s.good ? 1 : 0;
-  std::printf("device %s, own generator at %dx%d, %zu pairs (%d good: within 1 cm / 1 deg, and constrained)\n",
-              device.c_str(), width, height, samples.size(), good);
+  std::printf(
+      "device %s, own generator at %dx%d, %zu pairs (%d good: within 1 cm / 1 deg, and "
+      "constrained)\n",
+      device.c_str(), width, height, samples.size(), good);
   for (const char* scene : {"room", "wall", "fast"})
     for (const char* start : {"identity", "imu_like", "wrong"}) {
       int n = 0, g = 0;
@@ -473,7 +507,8 @@ int main(int argc, char** argv) {
       std::printf("  %-5s start %-9s %3d pairs, %3d good\n", scene, start, n, g);
     }
   const auto chosen = choose_rule(samples, target_precision);
-  if (!chosen) std::printf("no rule reaches precision %.3f on the calibration seeds\n", target_precision);
+  if (!chosen)
+    std::printf("no rule reaches precision %.3f on the calibration seeds\n", target_precision);
   report(samples, chosen, sources);
   return 0;
 }

@@ -70,7 +70,8 @@ struct TrackingNoise {
   Eigen::Isometry3d apply(const Eigen::Isometry3d& T) {
     Eigen::Isometry3d out = T;
     const Eigen::Vector3d w(n(rng), n(rng), n(rng));
-    out.linear() = T.linear() * Eigen::AngleAxisd(rot_sigma * w.norm(), w.normalized()).toRotationMatrix();
+    out.linear() =
+        T.linear() * Eigen::AngleAxisd(rot_sigma * w.norm(), w.normalized()).toRotationMatrix();
     out.translation() += pos_sigma * Eigen::Vector3d(n(rng), n(rng), n(rng));
     return out;
   }
@@ -89,12 +90,12 @@ InertialConfig base_config(const Eigen::Isometry3d& T_camera_imu, TranslationMod
 constexpr int kDriftTimesMs[] = {300, 500, 800, 1000, 2000};
 
 struct RunResult {
-  Errors errors;                           // frames after kSettle
-  std::map<int, double> bias_error;        // second -> |b - b_true| (rad/s)
-  std::map<int, double> hand_eye_error;    // second -> deg, NaN before the estimate is used
-  double switch_time = NAN;                // s after start when the hand-eye estimate was used
+  Errors errors;                         // frames after kSettle
+  std::map<int, double> bias_error;      // second -> |b - b_true| (rad/s)
+  std::map<int, double> hand_eye_error;  // second -> deg, NaN before the estimate is used
+  double switch_time = NAN;              // s after start when the hand-eye estimate was used
   double drift_pos_mm = NAN, drift_rot_deg = NAN;  // at the end of the dead-reckoned stretch
-  std::map<int, double> drift_pos_at_mm;  // ms into the stretch -> position error (mm)
+  std::map<int, double> drift_pos_at_mm;           // ms into the stretch -> position error (mm)
 };
 
 RunResult run(const synth::CameraMotion& motion, std::uint64_t seed, double seconds,
@@ -124,7 +125,8 @@ RunResult run(const synth::CameraMotion& motion, std::uint64_t seed, double seco
       const int ms = static_cast<int>(std::lround(1e3 * (tb - dead_reckon->begin)));
       for (const int at : kDriftTimesMs) {
         if (std::abs(ms - at) * kFps < 500)  // the frame within half a period of `at`
-          out.drift_pos_at_mm[at] = 1e3 * (pose_b.translation() - motion.pose_at(tb).translation()).norm();
+          out.drift_pos_at_mm[at] =
+              1e3 * (pose_b.translation() - motion.pose_at(tb).translation()).norm();
       }
     }
     if (dark && tb + 1.0 / kFps > dead_reckon->end) {
@@ -151,7 +153,8 @@ RunResult run(const synth::CameraMotion& motion, std::uint64_t seed, double seco
 
 void print_prediction_table(const std::map<std::string, std::map<TranslationModel, Errors>>& e,
                             const std::map<std::string, Errors>& no_imu) {
-  std::printf("| scene | model | rot median deg | rot p95 deg | trans median mm | trans p95 mm |\n");
+  std::printf(
+      "| scene | model | rot median deg | rot p95 deg | trans median mm | trans p95 mm |\n");
   std::printf("| --- | --- | --- | --- | --- | --- |\n");
   for (const auto& [scene, by_model] : e) {
     const Errors& base = no_imu.at(scene);
@@ -222,8 +225,9 @@ void run_tum(const std::filesystem::path& dir) {
   const std::vector<double> stamps = reader->timestamps();
   std::printf("\nTUM %s: %zu depth frames, %zu IMU samples, ground truth at depth stamps\n\n",
               dir.filename().c_str(), stamps.size(), info.imu.size());
-  std::printf("| model / run | frames | rot median deg | rot p95 deg | trans median mm | trans p95 mm "
-              "| final bias error deg/s | R_camera_imu error deg |\n");
+  std::printf(
+      "| model / run | frames | rot median deg | rot p95 deg | trans median mm | trans p95 mm "
+      "| final bias error deg/s | R_camera_imu error deg |\n");
   std::printf("| --- | --- | --- | --- | --- | --- | --- | --- |\n");
   struct Variant {
     std::string name;
@@ -232,7 +236,8 @@ void run_tum(const std::filesystem::path& dir) {
   };
   std::vector<Variant> variants;
   for (const TranslationModel m : kModels) variants.push_back({to_string(m), m, true});
-  variants.push_back({"constant-velocity, mounting estimated", TranslationModel::kConstantVelocity, false});
+  variants.push_back(
+      {"constant-velocity, mounting estimated", TranslationModel::kConstantVelocity, false});
   Errors no_imu;
   for (const Variant& v : variants) {
     InertialConfig config = base_config(info.T_camera_imu, v.model);
@@ -252,7 +257,8 @@ void run_tum(const std::filesystem::path& dir) {
         const MotionPrediction p = nav.predict(stamps[k - 1], stamps[k]);
         if (stamps[k] - stamps[0] > kSettle) {
           err.add(p.T_a_b, prev->inverse() * *cur);
-          if (&v == &variants.front()) no_imu.add(Eigen::Isometry3d::Identity(), prev->inverse() * *cur);
+          if (&v == &variants.front())
+            no_imu.add(Eigen::Isometry3d::Identity(), prev->inverse() * *cur);
         }
         nav.observe(stamps[k - 1], stamps[k], *prev, *cur, true);
       } else {
@@ -267,9 +273,10 @@ void run_tum(const std::filesystem::path& dir) {
                 (st.gyro_bias - true_bias).norm() / kDeg,
                 angle_deg(st.R_camera_imu.toRotationMatrix(), info.T_camera_imu.linear()));
   }
-  std::printf("| no IMU (identity) | %zu | %.3f | %.3f | %.2f | %.2f | | |\n", no_imu.rot_deg.size(),
-              percentile(no_imu.rot_deg, 0.5), percentile(no_imu.rot_deg, 0.95),
-              percentile(no_imu.trans_mm, 0.5), percentile(no_imu.trans_mm, 0.95));
+  std::printf("| no IMU (identity) | %zu | %.3f | %.3f | %.2f | %.2f | | |\n",
+              no_imu.rot_deg.size(), percentile(no_imu.rot_deg, 0.5),
+              percentile(no_imu.rot_deg, 0.95), percentile(no_imu.trans_mm, 0.5),
+              percentile(no_imu.trans_mm, 0.95));
 }
 
 }  // namespace
@@ -331,27 +338,30 @@ int main(int argc, char** argv) {
                                              motion.pose_at(ta).inverse() * motion.pose_at(tb));
         }
       }
-      InertialConfig unknown = base_config(Eigen::Isometry3d::Identity(),
-                                           TranslationModel::kConstantVelocity);
+      InertialConfig unknown =
+          base_config(Eigen::Isometry3d::Identity(), TranslationModel::kConstantVelocity);
       unknown.T_camera_imu_known = false;
-      const RunResult h = run(motion, seed, seconds, unknown, samples, bias, T_ci.linear(), std::nullopt);
+      const RunResult h =
+          run(motion, seed, seconds, unknown, samples, bias, T_ci.linear(), std::nullopt);
       hand_eye_runs.push_back(h.hand_eye_error);
       hand_eye_bias_runs.push_back(h.bias_error);
       switch_times.push_back(std::isnan(h.switch_time) ? 1e9 : h.switch_time);
     }
   }
 
-  std::printf("Prediction error per frame (30 Hz, %d seeds per scene, %.0f s each, frames after "
-              "%.0f s; tracked poses = truth + 0.05 deg / 1 mm noise)\n\n",
-              seeds, seconds, kSettle);
+  std::printf(
+      "Prediction error per frame (30 Hz, %d seeds per scene, %.0f s each, frames after "
+      "%.0f s; tracked poses = truth + 0.05 deg / 1 mm noise)\n\n",
+      seeds, seconds, kSettle);
   print_prediction_table(errors, no_imu);
-  std::printf("\nDead reckoning through the wall stretch (2 s unreliable, pose_b = pose_a * "
-              "prediction): error at its end, median / p95 over seeds\n\n");
+  std::printf(
+      "\nDead reckoning through the wall stretch (2 s unreliable, pose_b = pose_a * "
+      "prediction): error at its end, median / p95 over seeds\n\n");
   std::printf("| model | position mm | rotation deg |\n| --- | --- | --- |\n");
   for (const TranslationModel m : kModels) {
-    std::printf("| %s | %.0f / %.0f | %.3f / %.3f |\n", to_string(m),
-                percentile(drift_pos[m], 0.5), percentile(drift_pos[m], 0.95),
-                percentile(drift_rot[m], 0.5), percentile(drift_rot[m], 0.95));
+    std::printf("| %s | %.0f / %.0f | %.3f / %.3f |\n", to_string(m), percentile(drift_pos[m], 0.5),
+                percentile(drift_pos[m], 0.95), percentile(drift_rot[m], 0.5),
+                percentile(drift_rot[m], 0.95));
   }
   std::printf("\nPosition drift into the stretch, mm, median / p95 over seeds\n\n| model |");
   for (const int at : kDriftTimesMs) std::printf(" %d ms |", at);
@@ -361,16 +371,18 @@ int main(int argc, char** argv) {
   for (const TranslationModel m : kModels) {
     std::printf("| %s |", to_string(m));
     for (const int at : kDriftTimesMs)
-      std::printf(" %.1f / %.1f |", percentile(drift_pos_at[m][at], 0.5), percentile(drift_pos_at[m][at], 0.95));
+      std::printf(" %.1f / %.1f |", percentile(drift_pos_at[m][at], 0.5),
+                  percentile(drift_pos_at[m][at], 0.95));
     std::printf("\n");
   }
   print_over_time("Gyro bias error, mounting known", "deg/s", 1.0 / kDeg, bias_runs);
   print_over_time("Mounting rotation error, hand-eye from identity", "deg", 1.0, hand_eye_runs);
   print_over_time("Gyro bias error, mounting estimated", "deg/s", 1.0 / kDeg, hand_eye_bias_runs);
-  std::printf("\nHand-eye estimate in use after: median %.1f s, p95 %.1f s, never in %d of %zu runs\n",
-              percentile(switch_times, 0.5), percentile(switch_times, 0.95),
-              static_cast<int>(std::count(switch_times.begin(), switch_times.end(), 1e9)),
-              switch_times.size());
+  std::printf(
+      "\nHand-eye estimate in use after: median %.1f s, p95 %.1f s, never in %d of %zu runs\n",
+      percentile(switch_times, 0.5), percentile(switch_times, 0.95),
+      static_cast<int>(std::count(switch_times.begin(), switch_times.end(), 1e9)),
+      switch_times.size());
   if (std::filesystem::exists(tum)) {
     run_tum(tum);
   } else {

@@ -40,8 +40,9 @@ double percentile(std::vector<float> v, double p) {
 }
 
 // Pairs level `level` of frame b (moved by T_a_b) with frame a's pixels.
-void pair_level(const PreprocessedFrame& a, const PreprocessedFrame& b, const Intrinsics& k, int level,
-                const Eigen::Isometry3d& T_a_b, const DepthNoiseModel& noise, std::vector<Sample>& out) {
+void pair_level(const PreprocessedFrame& a, const PreprocessedFrame& b, const Intrinsics& k,
+                int level, const Eigen::Isometry3d& T_a_b, const DepthNoiseModel& noise,
+                std::vector<Sample>& out) {
   const Vec4Image& va = a.vertices[level];
   const Vec4Image& na = a.normals[level];
   const Vec4Image& vb = b.vertices[level];
@@ -55,7 +56,8 @@ void pair_level(const PreprocessedFrame& a, const PreprocessedFrame& b, const In
     const long u = std::lround(kl.fx * p.x() / p.z() + kl.cx);
     const long v = std::lround(kl.fy * p.y() / p.z() + kl.cy);
     if (u < 0 || v < 0 || u >= kl.width || v >= kl.height) continue;
-    const std::size_t j = static_cast<std::size_t>(v) * static_cast<std::size_t>(kl.width) + static_cast<std::size_t>(u);
+    const std::size_t j = static_cast<std::size_t>(v) * static_cast<std::size_t>(kl.width) +
+                          static_cast<std::size_t>(u);
     if (va.data[j].w() <= 0.5f || na.data[j].w() <= 0.5f) continue;
     const double z = p.z();
     const double sigma = noise.sigma(z);
@@ -78,15 +80,16 @@ void print_report(const std::vector<std::vector<Sample>>& levels) {
         k.push_back(s.k);
       }
     if (angle.size() < 100) continue;
-    std::printf("  %.1f-%.1f %9zu  %5.1f %5.1f %5.1f   %5.2f %5.2f %5.2f\n", lo, lo + 0.5, angle.size(),
-                percentile(angle, 0.5), percentile(angle, 0.9), percentile(angle, 0.95), percentile(k, 0.5),
-                percentile(k, 0.9), percentile(k, 0.95));
+    std::printf("  %.1f-%.1f %9zu  %5.1f %5.1f %5.1f   %5.2f %5.2f %5.2f\n", lo, lo + 0.5,
+                angle.size(), percentile(angle, 0.5), percentile(angle, 0.9),
+                percentile(angle, 0.95), percentile(k, 0.5), percentile(k, 0.9),
+                percentile(k, 0.95));
   }
   for (std::size_t l = 0; l < levels.size(); ++l) {
     std::vector<float> k;
     for (const Sample& s : levels[l]) k.push_back(s.k);
-    std::printf("level %zu: %zu pairs, k p50 %.2f p90 %.2f p95 %.2f p99 %.2f\n", l, k.size(), percentile(k, 0.5),
-                percentile(k, 0.9), percentile(k, 0.95), percentile(k, 0.99));
+    std::printf("level %zu: %zu pairs, k p50 %.2f p90 %.2f p95 %.2f p99 %.2f\n", l, k.size(),
+                percentile(k, 0.5), percentile(k, 0.9), percentile(k, 0.95), percentile(k, 0.99));
   }
 }
 
@@ -100,8 +103,10 @@ int main(int argc, char** argv) {
   int pairs = 20, step = 1;
   for (int i = 2; i + 1 < argc; i += 2) {
     const std::string flag = argv[i];
-    if (flag == "--pairs") pairs = std::atoi(argv[i + 1]);
-    else if (flag == "--step") step = std::atoi(argv[i + 1]);
+    if (flag == "--pairs")
+      pairs = std::atoi(argv[i + 1]);
+    else if (flag == "--step")
+      step = std::atoi(argv[i + 1]);
   }
   SequenceOptions options;
   options.load_color = false;
@@ -124,7 +129,8 @@ int main(int argc, char** argv) {
   const DepthNoiseModel noise;
   std::vector<std::vector<Sample>> levels(static_cast<std::size_t>(pre.levels));
   const std::size_t n = reader->frame_count();
-  const std::size_t stride = std::max<std::size_t>(1, (n - static_cast<std::size_t>(step)) / static_cast<std::size_t>(pairs));
+  const std::size_t stride = std::max<std::size_t>(
+      1, (n - static_cast<std::size_t>(step)) / static_cast<std::size_t>(pairs));
   for (std::size_t t = 0; t + static_cast<std::size_t>(step) < n; t += stride) {
     auto fa = reader->frame(t);
     auto fb = reader->frame(t + static_cast<std::size_t>(step));
@@ -136,7 +142,8 @@ int main(int argc, char** argv) {
     auto b = preprocessor->process(fb->depth);
     if (!a || !b) continue;
     const Eigen::Isometry3d T_a_b = pa->T_world_camera.inverse() * pb->T_world_camera;
-    for (int l = 0; l < pre.levels; ++l) pair_level(*a, *b, k, l, T_a_b, noise, levels[static_cast<std::size_t>(l)]);
+    for (int l = 0; l < pre.levels; ++l)
+      pair_level(*a, *b, k, l, T_a_b, noise, levels[static_cast<std::size_t>(l)]);
   }
   print_report(levels);
   return 0;

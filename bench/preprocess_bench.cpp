@@ -2,10 +2,10 @@
 // kernels, download) and each kernel's GPU time (timestamp queries) as counters, for several
 // workgroup sizes. Device: IMUFUSION_DEVICE or the default choice.
 
+#include <benchmark/benchmark.h>
+
 #include <map>
 #include <string>
-
-#include <benchmark/benchmark.h>
 
 #include "imufusion/preprocess.hpp"
 #include "imufusion/synth.hpp"

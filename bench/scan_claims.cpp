@@ -60,7 +60,8 @@ struct Setting {
   bool imu;
   int iterations;
 };
-constexpr Setting kSettings[] = {{"imu-1", true, 1}, {"imu-2", true, 2}, {"icp-10", false, 10}, {"icp-30", false, 30}};
+constexpr Setting kSettings[] = {
+    {"imu-1", true, 1}, {"imu-2", true, 2}, {"icp-10", false, 10}, {"icp-30", false, 30}};
 
 struct Options {
   std::vector<std::string> scenes = {"room", "wall", "fast"};
@@ -71,13 +72,15 @@ struct Options {
   long sequence_frames = -1;
   fs::path work = fs::temp_directory_path() / "imufusion_scan_claims";
   std::vector<std::string> settings = {"imu-1", "imu-2", "icp-10", "icp-30"};
-  int retrack_lost_frames = ReconstructorConfig{}.smoothing.retrack_frames;  // 0: no backward placement
-  double max_condition = IcpReliabilityThresholds{}.max_condition;     // the reliability test's kappa
+  int retrack_lost_frames =
+      ReconstructorConfig{}.smoothing.retrack_frames;               // 0: no backward placement
+  double max_condition = IcpReliabilityThresholds{}.max_condition;  // the reliability test's kappa
   double partial_move_sigma = ReconstructorConfig{}.smoothing.partial_move_sigma;
   double retracked_frame_sigma = ReconstructorConfig{}.smoothing.retracked_frame_sigma;
   double recovery_agreement_distance = ReconstructorConfig{}.recovery.agreement_distance;
   bool correct_velocity_after_loss = ReconstructorConfig{}.recovery.correct_velocity;
-  double seed_gate = 0;  // > 0: ReconstructorConfig::imu.seed_gate at this IcpConfig::seed_gate_sigmas
+  double seed_gate =
+      0;  // > 0: ReconstructorConfig::imu.seed_gate at this IcpConfig::seed_gate_sigmas
 };
 
 std::vector<std::string> split(const std::string& text) {
@@ -95,28 +98,40 @@ bool wanted(const Options& opt, const Setting& setting) {
 bool parse(int argc, char** argv, Options& opt) {
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i], v = argv[i + 1];
-    if (a == "--scenes") opt.scenes = split(v);
+    if (a == "--scenes")
+      opt.scenes = split(v);
     else if (a == "--seeds") {
       opt.seeds.clear();
       for (const auto& s : split(v)) opt.seeds.push_back(std::strtoull(s.c_str(), nullptr, 10));
     } else if (a == "--size") {
       if (std::sscanf(v.c_str(), "%dx%d", &opt.width, &opt.height) != 2) return false;
-    } else if (a == "--frames") opt.frames = std::atoi(v.c_str());
-    else if (a == "--sequence") opt.sequence = v;
-    else if (a == "--sequence-frames") opt.sequence_frames = std::atol(v.c_str());
-    else if (a == "--work") opt.work = v;
-    else if (a == "--retrack-lost-frames") opt.retrack_lost_frames = std::atoi(v.c_str());
-    else if (a == "--max-condition") opt.max_condition = std::atof(v.c_str());
-    else if (a == "--seed-gate") opt.seed_gate = std::atof(v.c_str());
-    else if (a == "--partial-move-sigma") opt.partial_move_sigma = std::atof(v.c_str());
-    else if (a == "--retracked-frame-sigma") opt.retracked_frame_sigma = std::atof(v.c_str());
+    } else if (a == "--frames")
+      opt.frames = std::atoi(v.c_str());
+    else if (a == "--sequence")
+      opt.sequence = v;
+    else if (a == "--sequence-frames")
+      opt.sequence_frames = std::atol(v.c_str());
+    else if (a == "--work")
+      opt.work = v;
+    else if (a == "--retrack-lost-frames")
+      opt.retrack_lost_frames = std::atoi(v.c_str());
+    else if (a == "--max-condition")
+      opt.max_condition = std::atof(v.c_str());
+    else if (a == "--seed-gate")
+      opt.seed_gate = std::atof(v.c_str());
+    else if (a == "--partial-move-sigma")
+      opt.partial_move_sigma = std::atof(v.c_str());
+    else if (a == "--retracked-frame-sigma")
+      opt.retracked_frame_sigma = std::atof(v.c_str());
     else if (a == "--recovery-agreement-distance")
       opt.recovery_agreement_distance = std::atof(v.c_str());
     else if (a == "--correct-velocity-after-loss") {
       if (v != "0" && v != "1") return false;
       opt.correct_velocity_after_loss = v == "1";
-    } else if (a == "--settings") opt.settings = split(v);
-    else return false;
+    } else if (a == "--settings")
+      opt.settings = split(v);
+    else
+      return false;
   }
   return (argc % 2) == 1 && opt.frames > 1 && opt.width > 0 && opt.height > 0;
 }
@@ -125,7 +140,7 @@ struct Loaded {
   std::string label;
   std::optional<SequenceReader> reader;
   std::vector<Frame> frames;
-  std::optional<double> hard_end;  // time after which every frame should track (wall scans)
+  std::optional<double> hard_end;      // time after which every frame should track (wall scans)
   std::optional<synth::ImuBias> bias;  // the true IMU biases (synthetic scans)
 };
 
@@ -148,7 +163,8 @@ struct SigmaCheck {
     const InertialStatus& e = last->inertial;
     // The scan's world is its first camera frame.
     const Eigen::Vector3d g =
-        seq.reader->ground_truth().front().T_world_camera.linear().transpose() * synth::gravity_world();
+        seq.reader->ground_truth().front().T_world_camera.linear().transpose() *
+        synth::gravity_world();
     const auto ratio2 = [](const Eigen::Vector3d& error, const Eigen::Vector3d& sigma) {
       return error.cwiseQuotient(sigma).squaredNorm();
     };
@@ -172,11 +188,14 @@ struct SigmaCheck {
   void print() const {
     if (axes == 0) return;
     std::printf("\n%zu scans, each with its first IMU setting:\n\n", scans.size());
-    std::printf("| estimate at the last full ICP frame before the first loss | axes | RMS of error / sigma |\n");
+    std::printf(
+        "| estimate at the last full ICP frame before the first loss | axes | RMS of error / sigma "
+        "|\n");
     std::printf("| --- | --- | --- |\n");
     const auto rms = [&](double sum) { return std::sqrt(sum / axes); };
-    std::printf("| gyro bias | %d | %.2f |\n| gravity | %d | %.2f |\n| accelerometer bias | %d | %.2f |\n", axes,
-                rms(gyro_bias), axes, rms(gravity), axes, rms(accel_bias));
+    std::printf(
+        "| gyro bias | %d | %.2f |\n| gravity | %d | %.2f |\n| accelerometer bias | %d | %.2f |\n",
+        axes, rms(gyro_bias), axes, rms(gravity), axes, rms(accel_bias));
     std::printf("| velocity | %d | %.2f (RMS error %.1f mm/s per axis) |\n", axes, rms(velocity),
                 1000 * rms(velocity_error2));
   }
@@ -190,7 +209,8 @@ Result<Loaded> load(const fs::path& dir, std::string label, long max_frames) {
   if (!reader) return reader.error();
   Loaded l;
   l.label = std::move(label);
-  const std::size_t n = max_frames > 0 ? std::min<std::size_t>(reader->frame_count(), static_cast<std::size_t>(max_frames))
+  const std::size_t n = max_frames > 0 ? std::min<std::size_t>(reader->frame_count(),
+                                                               static_cast<std::size_t>(max_frames))
                                        : reader->frame_count();
   for (std::size_t i = 0; i < n; ++i) {
     auto f = reader->next();
@@ -229,7 +249,9 @@ struct PairedAte {
         }
         if (d.empty()) continue;
         if (!header) {
-          std::printf("\n| setting | against | scans | no worse | mean difference mm (95 %% interval) | largest excess mm |\n");
+          std::printf(
+              "\n| setting | against | scans | no worse | mean difference mm (95 %% interval) | "
+              "largest excess mm |\n");
           std::printf("| --- | --- | --- | --- | --- | --- |\n");
           header = true;
         }
@@ -237,9 +259,9 @@ struct PairedAte {
         const ErrorStats stats = compute_error_stats(d);
         const double half = d.size() > 1 ? 1.96 * stats.std / std::sqrt(double(d.size() - 1)) : 0;
         const auto no_worse = std::count_if(d.begin(), d.end(), [](double x) { return x <= 0; });
-        std::printf("| %s | %s | %zu | %td | %+.3f (%+.3f to %+.3f) | %+.3f (%+.1f %%, %s) |\n", a.c_str(), b.c_str(),
-                    d.size(), no_worse, stats.mean, stats.mean - half, stats.mean + half, worst, worst_rel,
-                    worst_scan.c_str());
+        std::printf("| %s | %s | %zu | %td | %+.3f (%+.3f to %+.3f) | %+.3f (%+.1f %%, %s) |\n",
+                    a.c_str(), b.c_str(), d.size(), no_worse, stats.mean, stats.mean - half,
+                    stats.mean + half, worst, worst_rel, worst_scan.c_str());
       }
     }
   }
@@ -274,14 +296,16 @@ void run_setting(const Loaded& seq, const Setting& setting, const Options& opt) 
   for (const Frame& f : seq.frames) {
     auto r = rec->track_and_fuse(f.timestamp, f.depth, nullptr, f.imu);
     if (!r) {
-      std::fprintf(stderr, "%s %s: %s\n", seq.label.c_str(), setting.name, r.error().describe().c_str());
+      std::fprintf(stderr, "%s %s: %s\n", seq.label.c_str(), setting.name,
+                   r.error().describe().c_str());
       return;
     }
     results.push_back(std::move(*r));
   }
   auto placed = rec->finish();
   if (!placed) {
-    std::fprintf(stderr, "%s %s: %s\n", seq.label.c_str(), setting.name, placed.error().describe().c_str());
+    std::fprintf(stderr, "%s %s: %s\n", seq.label.c_str(), setting.name,
+                 placed.error().describe().c_str());
     return;
   }
   if (!results.empty()) results.back().retracked += *placed;
@@ -302,10 +326,15 @@ void run_setting(const Loaded& seq, const Setting& setting, const Options& opt) 
     after = all ? "yes" : "no";
   }
   std::string recover;
-  for (std::size_t k : s.recovery_frames) recover += (recover.empty() ? "" : "/") + std::to_string(k);
-  std::printf("| %s | %s | %.3f | %zu | %zu | %zu | %zu | %s | %zu | %zu | %.1f | %.1f | %.2f | %s | %.1f |\n",
-              seq.label.c_str(), setting.name, ate_mm, s.lost, s.recovering, s.recoveries, s.broken_recoveries,
-              recover.empty() ? "-" : recover.c_str(), s.retracked, s.recovery_restarts, s.median_icp_iterations, s.median_icp_iterations_tracking, s.mean_icp_iterations, after.c_str(), s.fps);
+  for (std::size_t k : s.recovery_frames)
+    recover += (recover.empty() ? "" : "/") + std::to_string(k);
+  std::printf(
+      "| %s | %s | %.3f | %zu | %zu | %zu | %zu | %s | %zu | %zu | %.1f | %.1f | %.2f | %s | %.1f "
+      "|\n",
+      seq.label.c_str(), setting.name, ate_mm, s.lost, s.recovering, s.recoveries,
+      s.broken_recoveries, recover.empty() ? "-" : recover.c_str(), s.retracked,
+      s.recovery_restarts, s.median_icp_iterations, s.median_icp_iterations_tracking,
+      s.mean_icp_iterations, after.c_str(), s.fps);
   std::fflush(stdout);
 }
 
@@ -314,16 +343,25 @@ void run_setting(const Loaded& seq, const Setting& setting, const Options& opt) 
 int main(int argc, char** argv) {
   Options opt;
   if (!parse(argc, argv, opt)) {
-    std::cerr << "usage: scan_claims [--scenes room,wall,fast] [--seeds 101,102] [--size WxH] [--frames N]\n"
-                 "                   [--sequence DIR [--sequence-frames N]] [--settings imu-1,imu-2,icp-10,icp-30]\n"
-                 "                   [--retrack-lost-frames N] [--max-condition K] [--seed-gate SIGMAS]\n"
-                 "                   [--partial-move-sigma M] [--retracked-frame-sigma M]\n"
-                 "                   [--recovery-agreement-distance M] [--correct-velocity-after-loss 0|1]\n"
-                 "                   [--work DIR]\n";
+    std::cerr
+        << "usage: scan_claims [--scenes room,wall,fast] [--seeds 101,102] [--size WxH] [--frames "
+           "N]\n"
+           "                   [--sequence DIR [--sequence-frames N]] [--settings "
+           "imu-1,imu-2,icp-10,icp-30]\n"
+           "                   [--retrack-lost-frames N] [--max-condition K] [--seed-gate SIGMAS]\n"
+           "                   [--partial-move-sigma M] [--retracked-frame-sigma M]\n"
+           "                   [--recovery-agreement-distance M] [--correct-velocity-after-loss "
+           "0|1]\n"
+           "                   [--work DIR]\n";
     return 2;
   }
-  std::printf("| scan | setting | ATE mm | lost | recovering | recoveries | broken | frames to recover | placed backward | restarts | median it | median it tracking | mean it | all tracking after the stretch | fps |\n");
-  std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+  std::printf(
+      "| scan | setting | ATE mm | lost | recovering | recoveries | broken | frames to recover | "
+      "placed backward | restarts | median it | median it tracking | mean it | all tracking after "
+      "the stretch | fps |\n");
+  std::printf(
+      "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- "
+      "|\n");
   for (const std::string& name : opt.scenes) {
     const auto kind = synth::parse_scene_kind(name);
     if (!kind) {
@@ -338,8 +376,9 @@ int main(int argc, char** argv) {
       config.height = opt.height;
       config.frames = opt.frames;
       config.color = false;
-      const fs::path dir = opt.work / (name + "_" + std::to_string(seed) + "_" + std::to_string(opt.width) + "x" +
-                                       std::to_string(opt.height) + "_" + std::to_string(opt.frames));
+      const fs::path dir =
+          opt.work / (name + "_" + std::to_string(seed) + "_" + std::to_string(opt.width) + "x" +
+                      std::to_string(opt.height) + "_" + std::to_string(opt.frames));
       if (!fs::exists(dir / "info.txt")) {
         if (auto s = synth::synthesize(config, dir); !s) {
           std::cerr << s.error().describe() << "\n";
@@ -352,7 +391,8 @@ int main(int argc, char** argv) {
         return 1;
       }
       const synth::CameraMotion motion(*kind, seed, config.start_time);
-      if (*kind == synth::SceneKind::kWall) seq->hard_end = config.start_time + motion.episode_end();
+      if (*kind == synth::SceneKind::kWall)
+        seq->hard_end = config.start_time + motion.episode_end();
       if (config.imu_noise) seq->bias = synth::draw_imu_bias(seed);
       for (const Setting& setting : kSettings)
         if (wanted(opt, setting)) run_setting(*seq, setting, opt);

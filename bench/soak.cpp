@@ -44,7 +44,8 @@ double slope(const std::vector<double>& x, const std::vector<double>& y) {
   mx /= static_cast<double>(x.size());
   my /= static_cast<double>(y.size());
   double sxy = 0, sxx = 0;
-  for (std::size_t i = 0; i < x.size(); ++i) sxy += (x[i] - mx) * (y[i] - my), sxx += (x[i] - mx) * (x[i] - mx);
+  for (std::size_t i = 0; i < x.size(); ++i)
+    sxy += (x[i] - mx) * (y[i] - my), sxx += (x[i] - mx) * (x[i] - mx);
   return sxx > 0 ? sxy / sxx : 0;
 }
 
@@ -62,7 +63,8 @@ int main(int argc, char** argv) {
       frames = std::atol(argv[++i]);
     } else if (i + 1 < argc && a == "--every") {
       every = std::atol(argv[++i]);
-    } else if (i + 1 < argc && a == "--size" && std::sscanf(argv[i + 1], "%dx%d", &width, &height) == 2) {
+    } else if (i + 1 < argc && a == "--size" &&
+               std::sscanf(argv[i + 1], "%dx%d", &width, &height) == 2) {
       ++i;
     } else {
       std::fprintf(stderr, "usage: soak [--frames N] [--size WxH] [--every K] [--keep-results]\n");
@@ -77,7 +79,8 @@ int main(int argc, char** argv) {
   const synth::Scene scene = synth::make_scene(synth::SceneKind::kRoom, 7);
   const synth::CameraMotion motion(synth::SceneKind::kRoom, 7);
   const Eigen::Isometry3d pose = motion.pose_at(0.0);
-  const synth::RenderedFrame frame = synth::render_frame(scene, pose, k, synth::SensorModel{}, 7, false);
+  const synth::RenderedFrame frame =
+      synth::render_frame(scene, pose, k, synth::SensorModel{}, 7, false);
 
   ReconstructorConfig config;
   config.intrinsics = k;
@@ -97,7 +100,8 @@ int main(int argc, char** argv) {
   for (long i = 0; i < frames; ++i) {
     const double t = static_cast<double>(i) * kFramePeriod;
     std::vector<ImuSample> imu;
-    for (; next_imu <= t; next_imu += kImuPeriod) imu.push_back({next_imu, Eigen::Vector3d::Zero(), up_in_camera});
+    for (; next_imu <= t; next_imu += kImuPeriod)
+      imu.push_back({next_imu, Eigen::Vector3d::Zero(), up_in_camera});
     auto result = rec->track_and_fuse(t, frame.depth, nullptr, imu);
     if (!result) {
       std::fprintf(stderr, "soak: frame %ld: %s\n", i, result.error().describe().c_str());
@@ -114,7 +118,8 @@ int main(int argc, char** argv) {
   const std::size_t warm = at_frame.size() / 10 + 1;
   const std::vector<double> x(at_frame.begin() + static_cast<std::ptrdiff_t>(warm), at_frame.end());
   const std::vector<double> y(rss.begin() + static_cast<std::ptrdiff_t>(warm), rss.end());
-  std::printf("growth after frame %.0f: %.0f bytes/frame (trajectory: %zu bytes/frame)%s\n", at_frame[warm],
-              slope(x, y), sizeof(StampedPose), keep_results ? ", FrameResults kept" : "");
+  std::printf("growth after frame %.0f: %.0f bytes/frame (trajectory: %zu bytes/frame)%s\n",
+              at_frame[warm], slope(x, y), sizeof(StampedPose),
+              keep_results ? ", FrameResults kept" : "");
   return 0;
 }

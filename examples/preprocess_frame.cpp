@@ -2,10 +2,9 @@
 // uses imufusion's sequence reader and depth preprocessing.
 //   preprocess_frame SEQUENCE_DIR
 
-#include <iostream>
-
 #include <imufusion/preprocess.hpp>
 #include <imufusion/sequence.hpp>
+#include <iostream>
 
 int main(int argc, char** argv) {
   if (argc != 2) {

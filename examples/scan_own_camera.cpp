@@ -4,13 +4,12 @@
 // (imufusion-synth --scene room --out DIR writes one).
 //   scan_own_camera SEQUENCE_DIR OUT_DIR
 #include <filesystem>
-#include <iostream>
-
 #include <imufusion/image_io.hpp>
 #include <imufusion/mesh.hpp>
 #include <imufusion/reconstructor.hpp>
 #include <imufusion/sequence.hpp>
 #include <imufusion/trajectory.hpp>
+#include <iostream>
 
 using namespace imufusion;
 

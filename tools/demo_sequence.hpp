@@ -10,7 +10,8 @@
 
 namespace imufusion::tools {
 
-inline Result<std::filesystem::path> ensure_demo_sequence(const std::filesystem::path& dir, int frames) {
+inline Result<std::filesystem::path> ensure_demo_sequence(const std::filesystem::path& dir,
+                                                          int frames) {
   if (auto existing = SequenceReader::open(dir); existing.ok()) {
     const auto& info = existing->info().info;
     auto source = info.find("source");
@@ -23,8 +24,8 @@ inline Result<std::filesystem::path> ensure_demo_sequence(const std::filesystem:
   config.scene = synth::SceneKind::kRoom;
   config.frames = frames;
   config.overwrite = true;
-  std::cerr << "synthesizing the demo room scan (" << config.frames << " frames, " << config.width << "x"
-            << config.height << ") into " << dir.string() << " ...\n";
+  std::cerr << "synthesizing the demo room scan (" << config.frames << " frames, " << config.width
+            << "x" << config.height << ") into " << dir.string() << " ...\n";
   auto summary = synth::synthesize(config, dir);
   if (!summary) return summary.error();
   return dir;

@@ -42,7 +42,8 @@ class SteppedFrames {
     ++kept_;
     if (!frame) return frame.error();
     if (index > 0 && step_ > 1) {
-      frame->imu = reader_->imu_between(reader_->info().depth[index - step_].timestamp, frame->timestamp);
+      frame->imu =
+          reader_->imu_between(reader_->info().depth[index - step_].timestamp, frame->timestamp);
     }
     return std::optional<Frame>(std::move(*frame));
   }

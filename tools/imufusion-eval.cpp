@@ -12,18 +12,18 @@
 #include <string_view>
 #include <vector>
 
+#include "cli_numbers.hpp"
 #include "imufusion/eval.hpp"
 #include "imufusion/trajectory.hpp"
-#include "cli_numbers.hpp"
 
 namespace {
 
 using imufusion::DeltaUnit;
-using imufusion::tools::parse_number;
 using imufusion::ErrorStats;
 using imufusion::RpeResult;
 using imufusion::Trajectory;
 using imufusion::TrajectoryMetrics;
+using imufusion::tools::parse_number;
 
 constexpr const char* kUsage =
     "usage: imufusion-eval GROUNDTRUTH ESTIMATE [--json] [--max-difference S] [--offset S]\n"

@@ -5,6 +5,8 @@
 // and .ply), a shaded preview from the last fused pose, an overview from outside the scene, and
 // summary.json; for synthetic sequences also the mesh's accuracy and completeness.
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -14,11 +16,9 @@
 #include <fstream>
 #include <iostream>
 #include <map>
-#include <string>
-#include <unistd.h>
-#include <vector>
-
 #include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
 
 #include "imufusion/fusion.hpp"
 #include "imufusion/image_io.hpp"
@@ -80,15 +80,20 @@ int main(int argc, char** argv) {
       const char* v = next();
       if (v == nullptr) return (std::cerr << a << " needs a value\n", usage(std::cerr, 2));
       char* end = nullptr;
-      if (a == "--poses") opt.poses = v;
-      else if (a == "--out") opt.out = v;
-      else if (a == "--device") opt.device = v;
+      if (a == "--poses")
+        opt.poses = v;
+      else if (a == "--out")
+        opt.out = v;
+      else if (a == "--device")
+        opt.device = v;
       else if (a == "--voxel-size") {
         opt.voxel_size = std::strtof(v, &end);
-        if (*end != '\0' || !(opt.voxel_size > 0)) return (std::cerr << "bad --voxel-size " << v << "\n", 2);
+        if (*end != '\0' || !(opt.voxel_size > 0))
+          return (std::cerr << "bad --voxel-size " << v << "\n", 2);
       } else if (a == "--frames") {
         opt.max_frames = std::strtol(v, &end, 10);
-        if (*end != '\0' || opt.max_frames <= 0) return (std::cerr << "bad --frames " << v << "\n", 2);
+        if (*end != '\0' || opt.max_frames <= 0)
+          return (std::cerr << "bad --frames " << v << "\n", 2);
       } else {
         std::cerr << "unknown option " << a << "\n";
         return usage(std::cerr, 2);
@@ -103,7 +108,8 @@ int main(int argc, char** argv) {
 
   auto reader = SequenceReader::open(opt.sequence);
   if (!reader) return fail(reader.error().describe());
-  if (!reader->intrinsics()) return fail((opt.sequence / "calibration.txt").string() + " is missing");
+  if (!reader->intrinsics())
+    return fail((opt.sequence / "calibration.txt").string() + " is missing");
   Trajectory poses;
   if (!opt.poses.empty()) {
     auto read = read_trajectory(opt.poses);
@@ -130,9 +136,10 @@ int main(int argc, char** argv) {
   auto fusion = TsdfFusion::create(volume, PreprocessConfig{}, k, device);
   if (!fusion) return fail(fusion.error().describe());
 
-  const std::size_t total = opt.max_frames > 0
-      ? std::min<std::size_t>(reader->frame_count(), static_cast<std::size_t>(opt.max_frames))
-      : reader->frame_count();
+  const std::size_t total =
+      opt.max_frames > 0
+          ? std::min<std::size_t>(reader->frame_count(), static_cast<std::size_t>(opt.max_frames))
+          : reader->frame_count();
   std::map<std::string, std::vector<double>> kernel_ms;
   std::vector<double> frame_ms;
   std::size_t fused = 0, skipped = 0;
@@ -152,7 +159,8 @@ int main(int argc, char** argv) {
     auto stats = fusion->integrate(frame->depth, frame->color ? &*frame->color : nullptr,
                                    pose->T_world_camera, &timings);
     if (!stats) return fail("frame " + std::to_string(i) + ": " + stats.error().describe());
-    frame_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    frame_ms.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     for (const KernelTiming& t : timings) kernel_ms[t.kernel].push_back(t.gpu_ms);
     pool_full += stats->pool_full;
     table_full += stats->table_full;
@@ -161,14 +169,17 @@ int main(int argc, char** argv) {
     if (progress) std::cerr << "\rfused " << fused << "/" << total << std::flush;
   }
   if (progress) std::cerr << "\n";
-  if (fused == 0) return fail("no frame has a pose within 20 ms in " + (opt.poses.empty() ? (opt.sequence / "groundtruth.txt") : opt.poses).string());
+  if (fused == 0)
+    return fail("no frame has a pose within 20 ms in " +
+                (opt.poses.empty() ? (opt.sequence / "groundtruth.txt") : opt.poses).string());
 
   auto snapshot = fusion->snapshot();
   if (!snapshot) return fail(snapshot.error().describe());
   const auto m0 = std::chrono::steady_clock::now();
   auto mesh = extract_mesh(*snapshot);
   if (!mesh) return fail(mesh.error().describe());
-  const double mesh_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - m0).count();
+  const double mesh_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - m0).count();
   if (mesh->triangles.empty()) return fail("the fused volume holds no surface (no triangles)");
   if (auto s = write_glb(opt.out / "mesh.glb", *mesh); !s) return fail(s.error().describe());
   if (auto s = write_ply(opt.out / "mesh.ply", *mesh); !s) return fail(s.error().describe());
@@ -176,11 +187,13 @@ int main(int argc, char** argv) {
   std::vector<KernelTiming> raycast_timing;
   auto preview = fusion->raycast(used.back().T_world_camera, std::nullopt, &raycast_timing);
   if (!preview) return fail(preview.error().describe());
-  if (auto s = write_color_png(opt.out / "preview.png", preview->shaded); !s) return fail(s.error().describe());
-  auto overview = fusion->raycast(tools::overview_pose(*snapshot, used.front().T_world_camera, k), std::nullopt,
-                                  nullptr, std::pair{0.1f, 100.0f});
+  if (auto s = write_color_png(opt.out / "preview.png", preview->shaded); !s)
+    return fail(s.error().describe());
+  auto overview = fusion->raycast(tools::overview_pose(*snapshot, used.front().T_world_camera, k),
+                                  std::nullopt, nullptr, std::pair{0.1f, 100.0f});
   if (!overview) return fail(overview.error().describe());
-  if (auto s = write_color_png(opt.out / "overview.png", overview->shaded); !s) return fail(s.error().describe());
+  if (auto s = write_color_png(opt.out / "overview.png", overview->shaded); !s)
+    return fail(s.error().describe());
 
   nlohmann::json summary;
   summary["sequence"] = opt.sequence.string();
@@ -201,7 +214,8 @@ int main(int argc, char** argv) {
   summary["mesh_ms"] = mesh_ms;
   summary["median_frame_ms"] = median(frame_ms);
   for (const auto& [kernel, ms] : kernel_ms) summary["median_gpu_ms"][kernel] = median(ms);
-  if (!raycast_timing.empty()) summary["median_gpu_ms"]["volume_raycast"] = raycast_timing.front().gpu_ms;
+  if (!raycast_timing.empty())
+    summary["median_gpu_ms"]["volume_raycast"] = raycast_timing.front().gpu_ms;
 
   // Synthetic sequences name their scene: measure the mesh against the true surface.
   const auto& info = reader->info().info;
@@ -209,7 +223,8 @@ int main(int argc, char** argv) {
   auto seed = info.find("seed");
   if (scene_name != info.end() && seed != info.end()) {
     if (auto kind = synth::parse_scene_kind(scene_name->second)) {
-      const synth::Scene scene = synth::make_scene(*kind, std::strtoull(seed->second.c_str(), nullptr, 10));
+      const synth::Scene scene =
+          synth::make_scene(*kind, std::strtoull(seed->second.c_str(), nullptr, 10));
       const auto points = observed_surface_points(scene, used, k);
       auto accuracy = evaluate_mesh(*mesh, scene, points);
       if (accuracy) {
@@ -220,12 +235,15 @@ int main(int argc, char** argv) {
       }
     }
   }
-  if (auto s = io::write_text_atomically(opt.out / "summary.json", tools::json_text(summary) + "\n"); !s)
+  if (auto s =
+          io::write_text_atomically(opt.out / "summary.json", tools::json_text(summary) + "\n");
+      !s)
     return fail(s.error().describe());
-  std::printf("fused %zu of %zu frames on %s: %u blocks (%.1f MiB of volume), mesh %zu triangles -> %s\n",
-              fused, total, fusion->device().name.c_str(), fusion->allocated_blocks(),
-              double(fusion->memory_bytes()) / (1024.0 * 1024.0), mesh->triangles.size(),
-              (opt.out / "mesh.glb").string().c_str());
+  std::printf(
+      "fused %zu of %zu frames on %s: %u blocks (%.1f MiB of volume), mesh %zu triangles -> %s\n",
+      fused, total, fusion->device().name.c_str(), fusion->allocated_blocks(),
+      double(fusion->memory_bytes()) / (1024.0 * 1024.0), mesh->triangles.size(),
+      (opt.out / "mesh.glb").string().c_str());
   if (summary.contains("mesh_completeness"))
     std::printf("mesh vs true surface: accuracy %.2f mm mean, completeness %.1f%% within %.0f mm\n",
                 1000 * summary["mesh_accuracy_mean"].get<double>(),

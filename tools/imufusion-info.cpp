@@ -106,9 +106,8 @@ void print_summary(const SequenceCheck& check) {
     std::cout << "  depth frames without an IMU sample since the previous frame: "
               << check.frames_without_imu << "; inside its span: " << check.frames_within_imu
               << " of " << frames << "\n";
-    std::cout << "  left out: " << info.imu_implausible
-              << " samples beyond a real IMU's range, " << info.imu_time_jumps
-              << " jumps in time\n";
+    std::cout << "  left out: " << info.imu_implausible << " samples beyond a real IMU's range, "
+              << info.imu_time_jumps << " jumps in time\n";
   }
   const Eigen::Quaterniond q(info.T_camera_imu.linear());
   const Eigen::Vector3d t = info.T_camera_imu.translation();

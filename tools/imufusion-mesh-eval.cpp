@@ -12,11 +12,11 @@
 #include <utility>
 #include <vector>
 
+#include "cli_numbers.hpp"
 #include "imufusion/mesh.hpp"
 #include "imufusion/sequence.hpp"
 #include "imufusion/synth.hpp"
 #include "imufusion/trajectory.hpp"
-#include "cli_numbers.hpp"
 #include "json_text.hpp"
 
 namespace {

@@ -4,6 +4,8 @@
 // over every frame of a sequence and prints per-kernel GPU timings. With no SEQUENCE it first
 // synthesizes the embedded demo scan (the furnished `room`) into --demo-dir.
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -12,13 +14,12 @@
 #include <iostream>
 #include <map>
 #include <string>
-#include <unistd.h>
 #include <vector>
 
+#include "demo_sequence.hpp"
 #include "imufusion/device.hpp"
 #include "imufusion/preprocess.hpp"
 #include "imufusion/sequence.hpp"
-#include "demo_sequence.hpp"
 #include "imufusion/synth.hpp"
 
 namespace fs = std::filesystem;
@@ -40,7 +41,8 @@ void usage(std::ostream& out) {
   out << "usage: imufusion-preprocess [SEQUENCE] [--frames N] [--device NAME|INDEX] "
          "[--list-devices]\n"
          "                            [--demo-dir DIR] [--demo-frames N] [--quiet]\n"
-         "Runs the GPU depth preprocessing over SEQUENCE (a directory in the imufusion/TUM layout)\n"
+         "Runs the GPU depth preprocessing over SEQUENCE (a directory in the imufusion/TUM "
+         "layout)\n"
          "and prints per-kernel GPU timings. Without SEQUENCE, synthesizes the demo room scan\n"
          "into --demo-dir (default ./demo) and uses it.\n";
 }
@@ -66,10 +68,12 @@ int parse(int argc, char** argv, Options& opt) {
       usage(std::cout);
       return 0;
     } else if (arg == "--frames") {
-      if (!value(v) || !parse_int(v, n) || n <= 0) return (std::cerr << "--frames needs a positive count\n", 2);
+      if (!value(v) || !parse_int(v, n) || n <= 0)
+        return (std::cerr << "--frames needs a positive count\n", 2);
       opt.max_frames = n;
     } else if (arg == "--demo-frames") {
-      if (!value(v) || !parse_int(v, n) || n <= 0) return (std::cerr << "--demo-frames needs a positive count\n", 2);
+      if (!value(v) || !parse_int(v, n) || n <= 0)
+        return (std::cerr << "--demo-frames needs a positive count\n", 2);
       opt.demo_frames = static_cast<int>(n);
     } else if (arg == "--demo-dir") {
       if (!value(v)) return (std::cerr << "--demo-dir needs a directory\n", 2);
@@ -138,9 +142,10 @@ int main(int argc, char** argv) {
               << " is missing: the sequence has no intrinsics\n";
     return 1;
   }
-  const std::size_t total = opt.max_frames > 0
-                                ? std::min<std::size_t>(reader->frame_count(), static_cast<std::size_t>(opt.max_frames))
-                                : reader->frame_count();
+  const std::size_t total =
+      opt.max_frames > 0
+          ? std::min<std::size_t>(reader->frame_count(), static_cast<std::size_t>(opt.max_frames))
+          : reader->frame_count();
   if (total == 0) {
     std::cerr << "error: " << (path / "depth.txt").string() << " lists no frames\n";
     return 1;
@@ -162,8 +167,8 @@ int main(int argc, char** argv) {
     return 1;
   }
   std::cout << "sequence " << path.string() << ": " << total << " frames " << k.width << "x"
-            << k.height << "\ndevice   " << pre->device().name << " (" << to_string(pre->device().type)
-            << ")\n";
+            << k.height << "\ndevice   " << pre->device().name << " ("
+            << to_string(pre->device().type) << ")\n";
 
   std::map<std::string, std::vector<double>> gpu_ms;  // kernel -> per-frame times
   std::vector<std::string> order;
@@ -209,7 +214,8 @@ int main(int argc, char** argv) {
       continue;
     }
     total_median += median(v);
-    std::printf("%-18s %10.3f %10.3f %10.3f\n", name.c_str(), median(v), sum / double(v.size()), max);
+    std::printf("%-18s %10.3f %10.3f %10.3f\n", name.c_str(), median(v), sum / double(v.size()),
+                max);
   }
   std::printf("%-18s %10.3f\n", "sum of kernels", total_median);
   std::printf("\nwall time per frame (upload + kernels + download): median %.2f ms\n",

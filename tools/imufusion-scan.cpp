@@ -1,16 +1,18 @@
 // imufusion-scan [INPUT] [options]
 //
-// Scans a sequence, an OpenNI2 camera (openni2://[URI]) or recording (FILE.oni): IMU-seeded frame-to-model ICP, dead reckoning while tracking is unreliable,
-// fusion into the sparse TSDF volume (Reconstructor). Without INPUT it scans the embedded demo
-// (the synthetic furnished room, synthesized on the first run). Writes into --out DIR:
-// trajectory.txt, frames.csv, mesh.glb, mesh.ply, preview.png, overview.png and summary.json,
-// as one set that replaces an earlier run's (io/output_set.hpp; --out is checked before the
-// scan); a failure, Ctrl-C or SIGTERM mid-scan still writes the outputs of the frames done.
-// IMU samples no sensor gives are left out (io/imu_gate.hpp); an imu.txt that covers none of
-// the frames is not used.
+// Scans a sequence, an OpenNI2 camera (openni2://[URI]) or recording (FILE.oni): IMU-seeded
+// frame-to-model ICP, dead reckoning while tracking is unreliable, fusion into the sparse TSDF
+// volume (Reconstructor). Without INPUT it scans the embedded demo (the synthetic furnished room,
+// synthesized on the first run). Writes into --out DIR: trajectory.txt, frames.csv, mesh.glb,
+// mesh.ply, preview.png, overview.png and summary.json, as one set that replaces an earlier run's
+// (io/output_set.hpp; --out is checked before the scan); a failure, Ctrl-C or SIGTERM mid-scan
+// still writes the outputs of the frames done. IMU samples no sensor gives are left out
+// (io/imu_gate.hpp); an imu.txt that covers none of the frames is not used.
 // --imu-udp takes the IMU from a UDP stream instead of the sequence (scan_live.hpp); --record
 // writes the session (frames and IMU) as a sequence; --frame-step N scans every Nth frame with
 // all of the IMU (frame_step.hpp).
+
+#include <unistd.h>
 
 #include <algorithm>
 #include <csignal>
@@ -19,12 +21,10 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
-#include <unistd.h>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "cli_numbers.hpp"
 #include "demo_sequence.hpp"
@@ -88,33 +88,46 @@ constexpr int kIcpIterationsWithoutImu = 30;
 
 int usage(std::ostream& out, int code) {
   out << "usage: imufusion-scan [SEQUENCE] [--out DIR] [--no-imu] [--icp-iterations N]\n"
-         "                      [--voxel-size M] [--frames N] [--poses FILE] [--device NAME|INDEX]\n"
-         "                      [--list-devices] [--translation none|constant-velocity|accelerometer]\n"
+         "                      [--voxel-size M] [--frames N] [--poses FILE] [--device "
+         "NAME|INDEX]\n"
+         "                      [--list-devices] [--translation "
+         "none|constant-velocity|accelerometer]\n"
          "                      [--estimate-imu-rotation] [--recovery-frames N] [--no-color]\n"
-         "                      [--demo-dir DIR] [--demo-frames N] [--quiet] [--depth-mode WxH@FPS]\n"
-         "                      [--realtime] [--imu-udp PORT] [--imu-udp-address ADDR] [--record DIR]\n"
+         "                      [--demo-dir DIR] [--demo-frames N] [--quiet] [--depth-mode "
+         "WxH@FPS]\n"
+         "                      [--realtime] [--imu-udp PORT] [--imu-udp-address ADDR] [--record "
+         "DIR]\n"
          "                      [--frame-step N] [--block-capacity N]\n"
-         "Scans SEQUENCE, a camera (openni2:// or openni2://URI) or a recording (FILE.oni) (default:\n"
-         "the embedded demo room, synthesized into --demo-dir, default ./demo) and writes DIR (default ./scan)/trajectory.txt, frames.csv, mesh.glb, mesh.ply,\n"
+         "Scans SEQUENCE, a camera (openni2:// or openni2://URI) or a recording (FILE.oni) "
+         "(default:\n"
+         "the embedded demo room, synthesized into --demo-dir, default ./demo) and writes DIR "
+         "(default ./scan)/trajectory.txt, frames.csv, mesh.glb, mesh.ply,\n"
          "preview.png, overview.png and summary.json.\n"
          "  --no-imu                 track without the gyroscope (the ICP-only baseline)\n"
          "  --icp-iterations N       Gauss-Newton steps per frame at most (default "
       << kIcpIterationsWithImu << " with IMU, " << kIcpIterationsWithoutImu
       << " without)\n"
-         "  --poses FILE             fuse with known camera-to-world poses (TUM format), no tracking\n"
+         "  --poses FILE             fuse with known camera-to-world poses (TUM format), no "
+         "tracking\n"
          "  --frames N               scan at most N frames (counted after --frame-step)\n"
          "  --frame-step N           scan every Nth frame (0, N, 2N, ...: N times faster motion);\n"
-         "                           the IMU samples of skipped frames go with the next kept frame,\n"
+         "                           the IMU samples of skipped frames go with the next kept "
+         "frame,\n"
          "                           the outputs cover the kept frames only (default 1)\n"
-         "  --estimate-imu-rotation  ignore imu_to_camera.txt and estimate the camera-IMU rotation\n"
+         "  --estimate-imu-rotation  ignore imu_to_camera.txt and estimate the camera-IMU "
+         "rotation\n"
          "  --depth-mode WxH@FPS     camera depth mode (default 640x480@30)\n"
          "  --realtime               deliver recorded frames at their recorded pace\n"
-         "  --imu-udp PORT           take the IMU from UDP lines (imu.txt or Sensorstream format) on\n"
+         "  --imu-udp PORT           take the IMU from UDP lines (imu.txt or Sensorstream format) "
+         "on\n"
          "                           PORT instead of the sequence's imu.txt\n"
-         "  --imu-udp-address ADDR   IPv4 address to listen on (default " << ImuUdpOptions{}.address << ")\n"
+         "  --imu-udp-address ADDR   IPv4 address to listen on (default "
+      << ImuUdpOptions{}.address
+      << ")\n"
          "  --record DIR             write the session's frames and IMU as a sequence into DIR\n"
          "  --block-capacity N       TSDF blocks the volume holds (8^3 voxels, 4 KiB each; default "
-      << VolumeConfig{}.block_capacity << ");\n"
+      << VolumeConfig{}.block_capacity
+      << ");\n"
          "                           beyond them new surface is not fused (frames.csv pool_full)\n";
   return code;
 }
@@ -123,23 +136,50 @@ int parse(int argc, char** argv, Options& opt) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "-h" || a == "--help") return usage(std::cout, 0);
-    if (a == "--quiet") { opt.quiet = true; continue; }
-    if (a == "--no-imu") { opt.no_imu = true; continue; }
-    if (a == "--no-color") { opt.no_color = true; continue; }
-    if (a == "--list-devices") { opt.list_devices = true; continue; }
-    if (a == "--estimate-imu-rotation") { opt.estimate_imu_rotation = true; continue; }
-    if (a == "--realtime") { opt.realtime = true; continue; }
+    if (a == "--quiet") {
+      opt.quiet = true;
+      continue;
+    }
+    if (a == "--no-imu") {
+      opt.no_imu = true;
+      continue;
+    }
+    if (a == "--no-color") {
+      opt.no_color = true;
+      continue;
+    }
+    if (a == "--list-devices") {
+      opt.list_devices = true;
+      continue;
+    }
+    if (a == "--estimate-imu-rotation") {
+      opt.estimate_imu_rotation = true;
+      continue;
+    }
+    if (a == "--realtime") {
+      opt.realtime = true;
+      continue;
+    }
     if (a.size() > 1 && a[0] == '-') {
-      if (i + 1 >= argc) return (std::cerr << "error: " << a << " needs a value\n", usage(std::cerr, 2));
+      if (i + 1 >= argc)
+        return (std::cerr << "error: " << a << " needs a value\n", usage(std::cerr, 2));
       const std::string v = argv[++i];
-      auto bad = [&](const char* what) { return (std::cerr << "error: " << a << " needs " << what << ", got '" << v << "'\n", 2); };
+      auto bad = [&](const char* what) {
+        return (std::cerr << "error: " << a << " needs " << what << ", got '" << v << "'\n", 2);
+      };
       const auto integer = tools::parse_integer(v);
-      if (a == "--out") opt.out = v;
-      else if (a == "--poses") opt.poses = v;
-      else if (a == "--device") opt.device = v;
-      else if (a == "--demo-dir") opt.demo_dir = v;
-      else if (a == "--record") opt.record = v;
-      else if (a == "--imu-udp-address") opt.imu_udp_address = v;
+      if (a == "--out")
+        opt.out = v;
+      else if (a == "--poses")
+        opt.poses = v;
+      else if (a == "--device")
+        opt.device = v;
+      else if (a == "--demo-dir")
+        opt.demo_dir = v;
+      else if (a == "--record")
+        opt.record = v;
+      else if (a == "--imu-udp-address")
+        opt.imu_udp_address = v;
       else if (a == "--depth-mode") {
         auto mode = parse_depth_mode(v);
         if (!mode) return (std::cerr << "error: " << mode.error().describe() << "\n", 2);
@@ -147,8 +187,7 @@ int parse(int argc, char** argv, Options& opt) {
       } else if (a == "--imu-udp") {
         if (!integer || *integer < 1 || *integer > 65535) return bad("a UDP port 1..65535");
         opt.imu_udp = static_cast<std::uint16_t>(*integer);
-      }
-      else if (a == "--icp-iterations") {
+      } else if (a == "--icp-iterations") {
         if (!integer || *integer < 1 || *integer > 100) return bad("a count 1..100");
         opt.icp_iterations = static_cast<int>(*integer);
       } else if (a == "--frames") {
@@ -207,11 +246,11 @@ void show_progress(std::size_t done, std::size_t total, const FrameResult& f, do
   std::string count = std::to_string(done) + " frames";
   if (total > 0) {
     const auto filled = static_cast<std::size_t>(kWidth * done / total);
-    count = "[" + std::string(filled, '#') + std::string(kWidth - filled, ' ') + "] " + std::to_string(done) + "/" +
-            std::to_string(total);
+    count = "[" + std::string(filled, '#') + std::string(kWidth - filled, ' ') + "] " +
+            std::to_string(done) + "/" + std::to_string(total);
   }
-  std::fprintf(stderr, "\r%s  %.1f fps  %-14s icp %d it %llu inliers kappa %.0f  ", count.c_str(), fps,
-               tools::tracking_state(f), f.icp_ran ? f.icp.quality.iterations : 0,
+  std::fprintf(stderr, "\r%s  %.1f fps  %-14s icp %d it %llu inliers kappa %.0f  ", count.c_str(),
+               fps, tools::tracking_state(f), f.icp_ran ? f.icp.quality.iterations : 0,
                static_cast<unsigned long long>(f.icp_ran ? f.icp.quality.inliers : 0),
                f.icp_ran ? f.icp.quality.condition : 0.0);
   std::fflush(stderr);
@@ -228,8 +267,9 @@ std::string sequence_imu_unusable(const Options& opt, const SequenceReader* read
   if (imu.empty()) {
     std::snprintf(span, sizeof span, "has no usable sample");
   } else {
-    std::snprintf(span, sizeof span, "(%.3f .. %.3f s) covers none of the %zu frames (%.3f .. %.3f s)",
-                  imu.front().timestamp, imu.back().timestamp, stamps.size(), stamps.front(), stamps.back());
+    std::snprintf(
+        span, sizeof span, "(%.3f .. %.3f s) covers none of the %zu frames (%.3f .. %.3f s)",
+        imu.front().timestamp, imu.back().timestamp, stamps.size(), stamps.front(), stamps.back());
   }
   return (reader->info().directory / "imu.txt").string() + " " + span +
          ": scanning without the IMU (the --no-imu settings)";
@@ -237,8 +277,8 @@ std::string sequence_imu_unusable(const Options& opt, const SequenceReader* read
 
 // `reader`: the sequence when the input is one (null for a camera or .oni recording);
 // `sequence_imu`: whether its imu.txt can aid the scan.
-ReconstructorConfig make_config(const Options& opt, const SequenceReader* reader, const FrameSource* source,
-                                const Intrinsics& k, bool sequence_imu) {
+ReconstructorConfig make_config(const Options& opt, const SequenceReader* reader,
+                                const FrameSource* source, const Intrinsics& k, bool sequence_imu) {
   ReconstructorConfig config;
   config.intrinsics = k;
   config.volume.voxel_size = opt.voxel_size;
@@ -246,19 +286,23 @@ ReconstructorConfig make_config(const Options& opt, const SequenceReader* reader
   // The hash table keeps at least 4 slots per block, as the defaults do.
   while (config.volume.hash_slots < 4ull * opt.block_capacity) config.volume.hash_slots *= 2;
   config.device.selector = opt.device;
-  config.imu.enabled = !opt.no_imu && (opt.imu_udp || (reader != nullptr && reader->has_imu() && sequence_imu));
-  config.icp.max_total_iterations =
-      opt.icp_iterations.value_or(config.imu.enabled ? kIcpIterationsWithImu : kIcpIterationsWithoutImu);
+  config.imu.enabled =
+      !opt.no_imu && (opt.imu_udp || (reader != nullptr && reader->has_imu() && sequence_imu));
+  config.icp.max_total_iterations = opt.icp_iterations.value_or(
+      config.imu.enabled ? kIcpIterationsWithImu : kIcpIterationsWithoutImu);
   config.tracking.recovery_frames = opt.recovery_frames;
-  std::optional<Eigen::Isometry3d> T_camera_imu = source != nullptr ? source->T_camera_imu() : std::nullopt;
-  if (reader != nullptr && reader->info().has_imu_to_camera) T_camera_imu = reader->info().T_camera_imu;
+  std::optional<Eigen::Isometry3d> T_camera_imu =
+      source != nullptr ? source->T_camera_imu() : std::nullopt;
+  if (reader != nullptr && reader->info().has_imu_to_camera)
+    T_camera_imu = reader->info().T_camera_imu;
   config.inertial.T_camera_imu_known = T_camera_imu.has_value() && !opt.estimate_imu_rotation;
   config.inertial.T_camera_imu =
       config.inertial.T_camera_imu_known ? *T_camera_imu : Eigen::Isometry3d::Identity();
   if (reader != nullptr) {
     const auto& info = reader->info().info;
     if (auto noise = info.find("gyro_noise_density"); noise != info.end()) {
-      if (auto v = tools::parse_number(noise->second); v && *v > 0) config.inertial.gyro_noise_density = *v;
+      if (auto v = tools::parse_number(noise->second); v && *v > 0)
+        config.inertial.gyro_noise_density = *v;
     }
   }
   if (opt.translation) config.inertial.translation = *opt.translation;
@@ -273,14 +317,15 @@ struct ScanRun {
   Status frames_csv_status;  // the first failure to write a row
   ScanSummary summary;
   std::optional<FrameResult> last;  // the latest scanned frame
-  std::string stopped;  // why the scan ended early, empty when it ran through
-  std::string imu_fallback;  // why the sequence's IMU was not used, empty when it was
+  std::string stopped;              // why the scan ended early, empty when it ran through
+  std::string imu_fallback;         // why the sequence's IMU was not used, empty when it was
   bool pool_full_reported = false;
   std::size_t frames_without_pose = 0;
 };
 
 nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const ScanRun& run,
-                            const ScanStatistics& stats, const SequenceReader* reader, const std::string& input) {
+                            const ScanStatistics& stats, const SequenceReader* reader,
+                            const std::string& input) {
   const ReconstructorConfig& c = rec.config();
   nlohmann::json j;
   j["input"] = input;
@@ -333,16 +378,19 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
     const InertialStatus& in = run.last->inertial;
     auto& imu = j["imu_estimates"];
     imu["gyro_bias"] = {in.gyro_bias.x(), in.gyro_bias.y(), in.gyro_bias.z()};
-    imu["gyro_bias_sigma"] = {in.gyro_bias_sigma.x(), in.gyro_bias_sigma.y(), in.gyro_bias_sigma.z()};
+    imu["gyro_bias_sigma"] = {in.gyro_bias_sigma.x(), in.gyro_bias_sigma.y(),
+                              in.gyro_bias_sigma.z()};
     imu["gyro_bias_updates"] = in.bias_updates;
     imu["gyro_bias_rejected"] = in.bias_rejected;
     if (in.gravity_ready) {
       imu["gravity_world"] = {in.gravity_world.x(), in.gravity_world.y(), in.gravity_world.z()};
       imu["gravity_sigma"] = {in.gravity_sigma.x(), in.gravity_sigma.y(), in.gravity_sigma.z()};
       imu["accel_bias"] = {in.accel_bias.x(), in.accel_bias.y(), in.accel_bias.z()};
-      imu["accel_bias_sigma"] = {in.accel_bias_sigma.x(), in.accel_bias_sigma.y(), in.accel_bias_sigma.z()};
+      imu["accel_bias_sigma"] = {in.accel_bias_sigma.x(), in.accel_bias_sigma.y(),
+                                 in.accel_bias_sigma.z()};
     }
-    imu["R_camera_imu_xyzw"] = {in.R_camera_imu.x(), in.R_camera_imu.y(), in.R_camera_imu.z(), in.R_camera_imu.w()};
+    imu["R_camera_imu_xyzw"] = {in.R_camera_imu.x(), in.R_camera_imu.y(), in.R_camera_imu.z(),
+                                in.R_camera_imu.w()};
     imu["R_camera_imu_estimated"] = in.R_camera_imu_estimated;
     imu["R_camera_imu_sigma_deg"] = in.R_camera_imu_sigma_deg;
     imu["hand_eye_pairs"] = in.hand_eye_pairs;
@@ -350,8 +398,11 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
   if (reader != nullptr && reader->has_ground_truth() && stats.frames >= 3) {
     auto ate = evaluate_ate(reader->ground_truth(), rec.trajectory());
     if (ate) {
-      j["ate"] = {{"rmse", ate->stats.rmse}, {"mean", ate->stats.mean}, {"median", ate->stats.median},
-                  {"max", ate->stats.max}, {"matched", ate->stats.count}};
+      j["ate"] = {{"rmse", ate->stats.rmse},
+                  {"mean", ate->stats.mean},
+                  {"median", ate->stats.median},
+                  {"max", ate->stats.max},
+                  {"matched", ate->stats.count}};
     } else {
       j["ate_error"] = ate.error().message;
     }
@@ -360,15 +411,17 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
 }
 
 // The outputs of a scan, replaced as one set; summary.json, last, marks the set complete.
-const std::vector<std::string> kOutputs = {"trajectory.txt", "frames.csv",   "mesh.glb",    "mesh.ply",
-                                           "preview.png",    "overview.png", "summary.json"};
+const std::vector<std::string> kOutputs = {"trajectory.txt", "frames.csv",  "mesh.glb",
+                                           "mesh.ply",       "preview.png", "overview.png",
+                                           "summary.json"};
 
 // Writes every output of the frames scanned so far into the set's staging directory; returns
 // the first failure.
 Status write_outputs(const io::OutputSet& set, Reconstructor& rec, ScanRun& run,
                      const nlohmann::json& summary_in, std::string* mesh_line) {
-  IMUFUSION_RETURN_IF_ERROR(write_trajectory(set.staged("trajectory.txt"), rec.trajectory(),
-                                             "camera-to-world poses of imufusion-scan, one per scanned frame"));
+  IMUFUSION_RETURN_IF_ERROR(
+      write_trajectory(set.staged("trajectory.txt"), rec.trajectory(),
+                       "camera-to-world poses of imufusion-scan, one per scanned frame"));
   IMUFUSION_RETURN_IF_ERROR(run.frames_csv_status);
   run.frames_csv_rows.close();
   nlohmann::json summary = summary_in;
@@ -384,13 +437,15 @@ Status write_outputs(const io::OutputSet& set, Reconstructor& rec, ScanRun& run,
     IMUFUSION_RETURN_IF_ERROR(write_color_png(set.staged("preview.png"), preview->shaded));
     auto volume = rec.snapshot();
     if (!volume) return volume.error();
-    auto overview = rec.raycast(tools::overview_pose(*volume, rec.trajectory().front().T_world_camera,
-                                                     rec.config().intrinsics),
-                                std::nullopt, std::pair{0.1f, 100.0f});
+    auto overview =
+        rec.raycast(tools::overview_pose(*volume, rec.trajectory().front().T_world_camera,
+                                         rec.config().intrinsics),
+                    std::nullopt, std::pair{0.1f, 100.0f});
     if (!overview) return overview.error();
     IMUFUSION_RETURN_IF_ERROR(write_color_png(set.staged("overview.png"), overview->shaded));
     *mesh_line = "mesh " + std::to_string(mesh->triangles.size()) + " triangles -> " +
-                 set.final_path("mesh.glb").string() + ", preview -> " + set.final_path("preview.png").string();
+                 set.final_path("mesh.glb").string() + ", preview -> " +
+                 set.final_path("preview.png").string();
   } else {
     *mesh_line = "no surface was fused: no mesh or preview written";
   }
@@ -402,7 +457,8 @@ bool is_device_input(const fs::path& input) {
 }
 
 // A recorder for --record: calibration, imu_to_camera and the sequence's info lines.
-Result<SessionRecorder> open_recorder(const Options& opt, const ReconstructorConfig& c, const SequenceReader* reader) {
+Result<SessionRecorder> open_recorder(const Options& opt, const ReconstructorConfig& c,
+                                      const SequenceReader* reader) {
   auto recorder = SessionRecorder::create(opt.record);
   if (!recorder) return recorder.error();
   recorder->set_intrinsics(c.intrinsics);
@@ -457,7 +513,8 @@ Result<std::optional<FrameResult>> scan_one(const Options& opt, Reconstructor& r
   if (!opt.poses.empty()) {
     const StampedPose* pose = find_pose(known, frame.timestamp);
     if (pose == nullptr) return std::optional<FrameResult>{};
-    result = rec.fuse_with_pose(frame.timestamp, frame.depth, color, pose->T_world_camera, frame.imu);
+    result =
+        rec.fuse_with_pose(frame.timestamp, frame.depth, color, pose->T_world_camera, frame.imu);
   } else {
     result = rec.track_and_fuse(frame.timestamp, frame.depth, color, frame.imu);
   }
@@ -475,8 +532,8 @@ struct ScanInputs {
   const Trajectory& known;
 };
 
-// Scans until the input ends, --frames frames are done, a frame fails or SIGINT/SIGTERM, then settles a
-// scan that ends while recovering (Reconstructor::finish). Returns the exit code.
+// Scans until the input ends, --frames frames are done, a frame fails or SIGINT/SIGTERM, then
+// settles a scan that ends while recovering (Reconstructor::finish). Returns the exit code.
 int scan_frames(const Options& opt, Reconstructor& rec, ScanInputs in, ScanRun& run) {
   const std::size_t limit = frame_limit(opt);
   const bool progress = !opt.quiet && isatty(STDERR_FILENO);
@@ -484,8 +541,8 @@ int scan_frames(const Options& opt, Reconstructor& rec, ScanInputs in, ScanRun& 
   double elapsed_ms = 0;
   for (std::size_t i = 0; i < limit; ++i) {
     if (g_interrupted) {
-      run.stopped = std::string(g_interrupted == SIGTERM ? "terminated (SIGTERM)" : "interrupted") + " after " +
-                    std::to_string(i) + " frames";
+      run.stopped = std::string(g_interrupted == SIGTERM ? "terminated (SIGTERM)" : "interrupted") +
+                    " after " + std::to_string(i) + " frames";
       exit_code = 128 + g_interrupted;
       break;
     }
@@ -508,8 +565,8 @@ int scan_frames(const Options& opt, Reconstructor& rec, ScanInputs in, ScanRun& 
     }
     auto result = scan_one(opt, rec, in.known, frame);
     if (!result) {
-      run.stopped = "frame " + std::to_string(i) + " (t=" + std::to_string(frame.timestamp) + "): " +
-                    result.error().describe();
+      run.stopped = "frame " + std::to_string(i) + " (t=" + std::to_string(frame.timestamp) +
+                    "): " + result.error().describe();
       exit_code = 1;
       break;
     }
@@ -521,14 +578,16 @@ int scan_frames(const Options& opt, Reconstructor& rec, ScanInputs in, ScanRun& 
     if (in.imu) in.imu->observe(**result);
     if ((*result)->fused && (*result)->integration.pool_full > 0 && !run.pool_full_reported) {
       run.pool_full_reported = true;
-      std::cerr << (progress ? "\n" : "") << "warning: the volume's block pool (" << rec.config().volume.block_capacity
-                << " blocks) is full from frame " << i << ": surface in new blocks is no longer fused (frames.csv "
+      std::cerr << (progress ? "\n" : "") << "warning: the volume's block pool ("
+                << rec.config().volume.block_capacity << " blocks) is full from frame " << i
+                << ": surface in new blocks is no longer fused (frames.csv "
                    "pool_full); scan with a larger --voxel-size (now "
                 << rec.config().volume.voxel_size << " m) or --block-capacity\n";
     }
     if (run.frames_csv_status.ok()) {
-      run.frames_csv_status = run.frames_csv_rows.append(run.frames_csv, frames_csv_header() + "\n",
-                                                         frames_csv_row(**result, rec.allocated_blocks()) + "\n");
+      run.frames_csv_status =
+          run.frames_csv_rows.append(run.frames_csv, frames_csv_header() + "\n",
+                                     frames_csv_row(**result, rec.allocated_blocks()) + "\n");
     }
     run.summary.add(**result);
     run.last = std::move(**result);
@@ -584,12 +643,14 @@ int main(int argc, char** argv) {
   run.frames_csv = outputs->staged("frames.csv");
   run.imu_fallback = sequence_imu_unusable(opt, sequence);
   if (!run.imu_fallback.empty()) std::cerr << "warning: " << run.imu_fallback << "\n";
-  if (sequence != nullptr && (sequence->info().imu_implausible > 0 || sequence->info().imu_time_jumps > 0)) {
+  if (sequence != nullptr &&
+      (sequence->info().imu_implausible > 0 || sequence->info().imu_time_jumps > 0)) {
     std::cerr << "warning: " << (sequence->info().directory / "imu.txt").string() << ": left out "
               << sequence->info().imu_implausible << " samples beyond a real IMU's range and "
               << sequence->info().imu_time_jumps << " jumps in time\n";
   }
-  auto rec = Reconstructor::create(make_config(opt, sequence, source.get(), k, run.imu_fallback.empty()));
+  auto rec =
+      Reconstructor::create(make_config(opt, sequence, source.get(), k, run.imu_fallback.empty()));
   if (!rec) return fail(rec.error().describe());
   std::optional<tools::LiveImu> imu;
   if (opt.imu_udp) {
@@ -609,16 +670,18 @@ int main(int argc, char** argv) {
   std::signal(SIGTERM, on_interrupt);
   const std::size_t limit = frame_limit(opt);
   tools::SteppedFrames frames(source ? nullptr : &*reader, source.get(), opt.frame_step);
-  const std::size_t total =
-      reader ? std::min(frames.kept_of(reader->frame_count()), limit) : (opt.max_frames > 0 ? limit : 0);
+  const std::size_t total = reader ? std::min(frames.kept_of(reader->frame_count()), limit)
+                                   : (opt.max_frames > 0 ? limit : 0);
   int exit_code = scan_frames(opt, *rec, ScanInputs{frames, total, imu, recorder, known}, run);
-  if (!run.stopped.empty()) std::cerr << (exit_code > 128 ? "stopped: " : "error: ") << run.stopped << "\n";
+  if (!run.stopped.empty())
+    std::cerr << (exit_code > 128 ? "stopped: " : "error: ") << run.stopped << "\n";
   nlohmann::json recording;
   if (recorder) {
     if (imu) recorder->set_imu_clock_offset(imu->imu_to_frame_offset());
     const Status finished = recorder->finish();
     if (!finished) {
-      std::cerr << "error: recording into " << opt.record.string() << ": " << finished.error().describe() << "\n";
+      std::cerr << "error: recording into " << opt.record.string() << ": "
+                << finished.error().describe() << "\n";
       if (exit_code == 0) exit_code = 1;
     }
     recording = tools::recorder_report(*recorder, finished);
@@ -631,14 +694,17 @@ int main(int argc, char** argv) {
   if (recorder) summary["recording"] = recording;
   std::string mesh_line;
   if (auto s = write_outputs(*outputs, *rec, run, summary, &mesh_line); !s) {
-    return fail(s.error().describe() + " (the outputs of an earlier run in " + opt.out.string() + " are as they were)");
+    return fail(s.error().describe() + " (the outputs of an earlier run in " + opt.out.string() +
+                " are as they were)");
   }
   if (auto s = outputs->commit(); !s) return fail(s.error().describe());
-  std::printf("scanned %zu frames on %s: %zu fused, %zu lost, %zu recoveries, %.2f ICP iterations/frame, "
-              "%.1f fps",
-              stats.frames, rec->device().name.c_str(), stats.fused, stats.lost, stats.recoveries,
-              stats.mean_icp_iterations, stats.fps);
-  if (summary.contains("ate")) std::printf(", ATE %.1f mm", 1000 * summary["ate"]["rmse"].get<double>());
+  std::printf(
+      "scanned %zu frames on %s: %zu fused, %zu lost, %zu recoveries, %.2f ICP iterations/frame, "
+      "%.1f fps",
+      stats.frames, rec->device().name.c_str(), stats.fused, stats.lost, stats.recoveries,
+      stats.mean_icp_iterations, stats.fps);
+  if (summary.contains("ate"))
+    std::printf(", ATE %.1f mm", 1000 * summary["ate"]["rmse"].get<double>());
   std::printf("\n%s\n", mesh_line.c_str());
   return exit_code;
 }

@@ -3,9 +3,8 @@
 // are not UTF-8 (a path, a line received over UDP): each such byte is written as U+FFFD, so a
 // report is always written and always parses.
 
-#include <string>
-
 #include <nlohmann/json.hpp>
+#include <string>
 
 namespace imufusion::tools {
 

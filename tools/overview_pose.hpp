@@ -1,9 +1,8 @@
 #pragma once
 // A viewpoint that shows the whole fused volume, for overview images.
 
-#include <cmath>
-
 #include <Eigen/Geometry>
+#include <cmath>
 
 #include "imufusion/types.hpp"
 #include "imufusion/volume.hpp"
@@ -13,7 +12,7 @@ namespace imufusion::tools {
 // A camera behind and above the first pose, looking at the centre of the allocated blocks, far
 // enough back to see all of them.
 inline Eigen::Isometry3d overview_pose(const HostVolume& volume, const Eigen::Isometry3d& first,
-                                const Intrinsics& k) {
+                                       const Intrinsics& k) {
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e9), hi = -lo;
   const double block = volume.voxel_size * kBlockSide;
   for (const VolumeBlock& b : volume.blocks) {

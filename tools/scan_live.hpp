@@ -9,12 +9,11 @@
 
 #include <cmath>
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "imufusion/clock_offset.hpp"
 #include "imufusion/imu_stream.hpp"
@@ -25,9 +24,12 @@ namespace imufusion::tools {
 
 inline const char* to_string(ClockOffsetEstimate::Source source) {
   switch (source) {
-    case ClockOffsetEstimate::Source::kArrival: return "arrival";
-    case ClockOffsetEstimate::Source::kCorrelation: return "correlation";
-    case ClockOffsetEstimate::Source::kNone: break;
+    case ClockOffsetEstimate::Source::kArrival:
+      return "arrival";
+    case ClockOffsetEstimate::Source::kCorrelation:
+      return "correlation";
+    case ClockOffsetEstimate::Source::kNone:
+      break;
   }
   return "none";
 }
@@ -73,9 +75,11 @@ class LiveImu {
   /// Feeds the camera's rotation rate between consecutive reliably tracked frames to the
   /// correlation estimate of the clock offset.
   void observe(const FrameResult& frame) {
-    const bool reliable = frame.icp_ran && frame.icp.reliable() && frame.status == TrackingStatus::kTracking;
+    const bool reliable =
+        frame.icp_ran && frame.icp.reliable() && frame.status == TrackingStatus::kTracking;
     if (reliable && previous_ && frame.timestamp > previous_->first) {
-      const Eigen::AngleAxisd turn(previous_->second.linear().transpose() * frame.T_world_camera.linear());
+      const Eigen::AngleAxisd turn(previous_->second.linear().transpose() *
+                                   frame.T_world_camera.linear());
       const double frame_offset = frame_clock_.offset().value_or(0.0);
       estimator_.add_camera_rate(previous_->first + frame_offset, frame.timestamp + frame_offset,
                                  std::abs(turn.angle()) / (frame.timestamp - previous_->first));
@@ -122,9 +126,11 @@ class LiveImu {
   ClockOffsetEstimator estimator_;
   HostClockMapper frame_clock_;
   ClockOffsetEstimate estimate_;
-  static constexpr int kCorrelationRefreshFrames = 30;  // ~1 s at 30 Hz; the offset drifts far slower
+  static constexpr int kCorrelationRefreshFrames =
+      30;  // ~1 s at 30 Hz; the offset drifts far slower
   int frames_since_estimate_ = 0;
-  std::optional<std::pair<double, Eigen::Isometry3d>> previous_;  // last reliable frame: time, T_world_camera
+  std::optional<std::pair<double, Eigen::Isometry3d>>
+      previous_;  // last reliable frame: time, T_world_camera
 };
 
 inline nlohmann::json recorder_report(const SessionRecorder& recorder, const Status& finished) {
@@ -143,7 +149,8 @@ inline nlohmann::json recorder_report(const SessionRecorder& recorder, const Sta
 /// The status line's tracking state: "tracking", "dead reckoning" or "recovering".
 inline const char* tracking_state(const FrameResult& f) {
   if (f.status == TrackingStatus::kRecovering) return "recovering";
-  if (f.status == TrackingStatus::kLost || f.source == PoseSource::kDeadReckoning) return "dead reckoning";
+  if (f.status == TrackingStatus::kLost || f.source == PoseSource::kDeadReckoning)
+    return "dead reckoning";
   return "tracking";
 }
 

@@ -8,11 +8,10 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <random>
 #include <sstream>
 #include <string>
-
-#include <nlohmann/json.hpp>
 
 #include "../support/synth_config.hpp"
 #include "imufusion/image_io.hpp"
@@ -41,8 +40,8 @@ class FuseTool : public ::testing::Test {
 
   int run(const std::string& args, std::string* err = nullptr) {
     const fs::path err_file = root_ / "stderr.txt";
-    const std::string command = kTool.string() + " " + args + " > " + (root_ / "stdout.txt").string() +
-                                " 2> " + err_file.string();
+    const std::string command = kTool.string() + " " + args + " > " +
+                                (root_ / "stdout.txt").string() + " 2> " + err_file.string();
     const int status = std::system(command.c_str());
     if (err != nullptr) {
       std::ifstream in(err_file);
@@ -62,7 +61,9 @@ TEST_F(FuseTool, FusesASyntheticRoomIntoAnAccurateMesh) {
   ASSERT_TRUE(synth::synthesize(config, sequence).ok());
   const fs::path out = root_ / "out";
   std::string err;
-  ASSERT_EQ(run(sequence.string() + " --out " + out.string() + " --voxel-size 0.02 --quiet", &err), 0) << err;
+  ASSERT_EQ(run(sequence.string() + " --out " + out.string() + " --voxel-size 0.02 --quiet", &err),
+            0)
+      << err;
   for (const char* name : {"mesh.glb", "mesh.ply", "preview.png", "overview.png", "summary.json"})
     EXPECT_TRUE(fs::exists(out / name)) << name;
   auto mesh = read_mesh(out / "mesh.ply");

@@ -2,11 +2,10 @@
 // recorded rate while the listener receives; every sample must arrive, parsed exactly.
 
 #include <arpa/inet.h>
+#include <gtest/gtest.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
 #include <unistd.h>
-
-#include <gtest/gtest.h>
 
 #include <chrono>
 #include <fstream>
@@ -43,8 +42,8 @@ class UdpSender {
 // imu.txt of a synthetic session (3 s of a 200 Hz phone IMU), written by SequenceWriter.
 std::filesystem::path write_imu_txt(const testing::TempDir& dir, std::vector<ImuSample>* truth) {
   const synth::CameraMotion motion(synth::SceneKind::kRoom, 11, 100.0);
-  *truth = synth::generate_imu(motion, synth::ImuConfig{}, synth::draw_imu_bias(11), 100.0,
-                               103.0, 11);
+  *truth =
+      synth::generate_imu(motion, synth::ImuConfig{}, synth::draw_imu_bias(11), 100.0, 103.0, 11);
   auto writer = SequenceWriter::create(dir / "seq");
   EXPECT_TRUE(writer.ok());
   DepthImage depth{4, 3, 5000.0, std::vector<std::uint16_t>(12, 1000)};
@@ -89,7 +88,8 @@ TEST(ImuUdpLoopback, ReplaysASyntheticImuTxtAtItsRate) {
         continue;
       }
       const double t = std::stod(lines[i].substr(0, lines[i].find(' ')));
-      std::this_thread::sleep_until(start + std::chrono::duration<double>(t - truth.front().timestamp));
+      std::this_thread::sleep_until(start +
+                                    std::chrono::duration<double>(t - truth.front().timestamp));
       sender.send(lines[i]);
       if (i % 97 == 0) {  // interleave garbage and a stale sample
         const std::string garbage = "not an imu line " + std::to_string(i);

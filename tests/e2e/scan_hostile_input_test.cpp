@@ -4,18 +4,16 @@
 // camera has. Each ends in a clear message or a scan that goes on, never in an abort or a hang.
 
 #include <gtest/gtest.h>
-
 #include <sys/stat.h>
 
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "imufusion/sequence.hpp"
 #include "scan_test_fixtures.hpp"
@@ -78,12 +76,15 @@ class ScanHostileInput : public test::ScanToolTest {
   test::ToolRun tool(const std::string& name, const std::string& args) {
     return test::run_tool(kDeadline + (kTools / name).string(), args, scratch_.path());
   }
-  test::ToolRun scan_within_deadline(const std::string& args) { return tool("imufusion-scan", args); }
+  test::ToolRun scan_within_deadline(const std::string& args) {
+    return tool("imufusion-scan", args);
+  }
 };
 
 TEST_F(ScanHostileInput, PathsThatAreNotUtf8AreReportedNotFatal) {
   const fs::path seq = synthesize(scratch_.path(), "room\xff", 6, 41);
-  const auto scanned = scan_within_deadline(seq.string() + " --out " + path("out").string() + " --quiet");
+  const auto scanned =
+      scan_within_deadline(seq.string() + " --out " + path("out").string() + " --quiet");
   ASSERT_EQ(scanned.exit_code, 0) << scanned.err;
   const auto summary = read_json(path("out") / "summary.json");
   EXPECT_NE(summary["input"].get<std::string>().find("room"), std::string::npos);
@@ -93,7 +94,8 @@ TEST_F(ScanHostileInput, PathsThatAreNotUtf8AreReportedNotFatal) {
   ASSERT_EQ(info.exit_code, 0) << info.err;
   EXPECT_EQ(nlohmann::json::parse(info.out)["scannable"], true);
 
-  const auto fused = tool("imufusion-fuse", seq.string() + " --out " + path("fused").string() + " --quiet");
+  const auto fused =
+      tool("imufusion-fuse", seq.string() + " --out " + path("fused").string() + " --quiet");
   ASSERT_EQ(fused.exit_code, 0) << fused.err;
   EXPECT_EQ(read_json(path("fused") / "summary.json")["frames_fused"], 6);
 }
@@ -108,7 +110,8 @@ TEST_F(ScanHostileInput, ADepthImageNamedInBytesThatAreNotUtf8IsReportedNotFatal
     fs::resize_file(seq / "depth" / "\xff.png", 100);
     return line.substr(0, line.find(' ')) + " depth/\xff.png";
   });
-  const auto scanned = scan_within_deadline(seq.string() + " --out " + path("out").string() + " --quiet");
+  const auto scanned =
+      scan_within_deadline(seq.string() + " --out " + path("out").string() + " --quiet");
   EXPECT_EQ(scanned.exit_code, 1) << scanned.err;
   const auto summary = read_json(path("out") / "summary.json");
   EXPECT_EQ(summary["frames"], 3);
@@ -141,7 +144,8 @@ TEST_F(ScanHostileInput, ImuSamplesNoSensorGivesAreLeftOutAndCounted) {
   const fs::path seq = synthesize(scratch_.path(), "room", 20, 47);
   set_gyro(seq, 40, "1e300 0 0");  // not finite once integrated
   set_gyro(seq, 90, "0 1000 0");   // 160 turns a second
-  const auto run = scan_within_deadline(seq.string() + " --out " + path("out").string() + " --quiet");
+  const auto run =
+      scan_within_deadline(seq.string() + " --out " + path("out").string() + " --quiet");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.err.find("2 samples beyond"), std::string::npos) << run.err;
   const auto summary = read_json(path("out") / "summary.json");
@@ -162,7 +166,8 @@ TEST_F(ScanHostileInput, ImuThatCoversNoFrameFallsBackToTheSettingsWithout) {
     const std::size_t space = line.find(' ');
     return fixed(std::stod(line.substr(0, space)) + 1000.0) + line.substr(space);
   });
-  const auto run = scan_within_deadline(seq.string() + " --out " + path("out").string() + " --quiet");
+  const auto run =
+      scan_within_deadline(seq.string() + " --out " + path("out").string() + " --quiet");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.err.find("covers none of the 8 frames"), std::string::npos) << run.err;
   const auto summary = read_json(path("out") / "summary.json");
@@ -186,7 +191,8 @@ TEST_F(ScanHostileInput, ALineFarInTheFutureOverUdpDoesNotMoveTheClock) {
   for (const auto& [t, line] : test::imu_lines(seq / "imu.txt")) {
     datagrams.emplace_back(t - t_first_frame, line + "\n");
     // One line a million seconds ahead of the stream, early in the scan.
-    if (datagrams.size() == 60) datagrams.emplace_back(t - t_first_frame, fixed(t + 1e6) + " 0 0 0 0 9.81 0\n");
+    if (datagrams.size() == 60)
+      datagrams.emplace_back(t - t_first_frame, fixed(t + 1e6) + " 0 0 0 0 9.81 0\n");
   }
   const std::uint16_t port = test::free_udp_port();
   test::UdpReplay sender(port, path("tool_stderr.txt"), datagrams);
@@ -207,7 +213,8 @@ TEST_F(ScanHostileInput, AFifoOrADeviceWhereAFileBelongsIsRefusedPromptly) {
   ASSERT_EQ(::mkfifo((seq / "groundtruth.txt").c_str(), 0600), 0);
   auto scanned = scan_within_deadline(seq.string() + " --out " + path("out").string() + " --quiet");
   EXPECT_EQ(scanned.exit_code, 1) << "124: it hung\n" << scanned.err;
-  EXPECT_NE(scanned.err.find("groundtruth.txt: not a regular file"), std::string::npos) << scanned.err;
+  EXPECT_NE(scanned.err.find("groundtruth.txt: not a regular file"), std::string::npos)
+      << scanned.err;
   auto info = tool("imufusion-info", seq.string());
   EXPECT_EQ(info.exit_code, 1) << info.err;
   EXPECT_NE(info.out.find("NOT scannable"), std::string::npos) << info.out;
@@ -228,7 +235,8 @@ TEST_F(ScanHostileInput, IntrinsicsNoCameraHasAreRefusedNamingTheValue) {
   for (const auto& [line, named] : {std::pair{"1e-06 100 79.5 59.5", "fx 1e-06"},
                                     std::pair{"100 100 1e+09 59.5", "cx 1e+09"}}) {
     std::ofstream(seq / "calibration.txt") << line << "\n";
-    const auto scanned = scan_within_deadline(seq.string() + " --out " + path("out").string() + " --quiet");
+    const auto scanned =
+        scan_within_deadline(seq.string() + " --out " + path("out").string() + " --quiet");
     EXPECT_EQ(scanned.exit_code, 1) << scanned.err;
     EXPECT_NE(scanned.err.find(named), std::string::npos) << scanned.err;
     EXPECT_NE(scanned.err.find("calibration.txt"), std::string::npos) << scanned.err;

@@ -4,19 +4,17 @@
 // scan; a full block pool is reported.
 
 #include <gtest/gtest.h>
-
 #include <signal.h>
 #include <sys/types.h>
 
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "imufusion/image_io.hpp"
 #include "imufusion/sequence.hpp"
@@ -70,8 +68,8 @@ class ScanInterruption : public test::ScanToolTest {
   pid_t start_recorded_scan() {
     const fs::path seq = synthesize(scratch_.path(), "room", 90, 61);
     const pid_t pid = test::spawn_tool(test::kScanTool,
-                                       {seq.string(), "--realtime", "--quiet", "--out", path("out").string(),
-                                        "--record", path("rec").string()},
+                                       {seq.string(), "--realtime", "--quiet", "--out",
+                                        path("out").string(), "--record", path("rec").string()},
                                        scratch_.path());
     EXPECT_GT(pid, 0);
     return pid;
@@ -139,7 +137,8 @@ TEST_F(ScanInterruption, AUsedOutIsReplacedAsOneSet) {
   const fs::path room = synthesize(scratch_.path(), "room", 6, 65);
   ASSERT_EQ(scan(room.string() + " --out " + path("out").string() + " --quiet").exit_code, 0);
   ASSERT_TRUE(fs::exists(path("out") / "mesh.glb"));
-  const auto run = scan(synthesize_empty(scratch_.path()).string() + " --out " + path("out").string() + " --quiet");
+  const auto run = scan(synthesize_empty(scratch_.path()).string() + " --out " +
+                        path("out").string() + " --quiet");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const auto summary = read_json(path("out") / "summary.json");
   EXPECT_EQ(summary["mesh_triangles"], 0);
@@ -160,23 +159,26 @@ TEST_F(ScanInterruption, AnUnwritableOutFailsBeforeTheScan) {
   probe.close();
   fs::remove(path("locked") / "probe");
   if (root) {
-    ASSERT_EQ(std::system(("chattr +i " + path("locked").string()).c_str()), 0) << "chattr is needed as root";
+    ASSERT_EQ(std::system(("chattr +i " + path("locked").string()).c_str()), 0)
+        << "chattr is needed as root";
   }
-  const auto run = scan(room.string() + " --out " + path("locked").string() + " --record " + path("rec").string() +
-                        " --quiet");
+  const auto run = scan(room.string() + " --out " + path("locked").string() + " --record " +
+                        path("rec").string() + " --quiet");
   if (root) {
     EXPECT_EQ(std::system(("chattr -i " + path("locked").string()).c_str()), 0);
   }
   fs::permissions(path("locked"), fs::perms::owner_all);
   EXPECT_EQ(run.exit_code, 1);
-  EXPECT_NE(run.err.find("cannot write into the output directory " + path("locked").string()), std::string::npos)
+  EXPECT_NE(run.err.find("cannot write into the output directory " + path("locked").string()),
+            std::string::npos)
       << run.err;
   EXPECT_FALSE(fs::exists(path("rec"))) << "the scan ran before --out was found unwritable";
 }
 
 TEST_F(ScanInterruption, AFullBlockPoolIsReported) {
   const fs::path room = synthesize(scratch_.path(), "room", 8, 69);
-  const auto run = scan(room.string() + " --out " + path("out").string() + " --block-capacity 200 --quiet");
+  const auto run =
+      scan(room.string() + " --out " + path("out").string() + " --block-capacity 200 --quiet");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.err.find("block pool"), std::string::npos) << run.err;
   const auto summary = read_json(path("out") / "summary.json");

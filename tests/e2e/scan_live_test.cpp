@@ -9,10 +9,9 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "../support/oni_writer.hpp"
 #include "imufusion/eval.hpp"
@@ -76,7 +75,8 @@ TEST_F(ScanLive, RecordsASequenceThatReadsBackAndScansTheSame) {
   }
   EXPECT_EQ(recorded->imu().size(), imu_handed_out);
 
-  const test::ToolRun again = scan(path("rec").string() + " --out " + path("out2").string() + " --quiet");
+  const test::ToolRun again =
+      scan(path("rec").string() + " --out " + path("out2").string() + " --quiet");
   ASSERT_EQ(again.exit_code, 0) << again.err;
   const nlohmann::json summary2 = read_json(path("out2") / "summary.json");
   EXPECT_EQ(summary2["frames"], summary["frames"]);
@@ -93,15 +93,16 @@ TEST_F(ScanLive, TakesTheImuFromAUdpStreamAtItsRealRate) {
   ASSERT_TRUE(first.ok());
   const double t_first_frame = first->timestamp;
   std::vector<std::pair<double, std::string>> datagrams;
-  for (const auto& [t, line] : test::imu_lines(seq / "imu.txt")) datagrams.emplace_back(t - t_first_frame, line + "\n");
+  for (const auto& [t, line] : test::imu_lines(seq / "imu.txt"))
+    datagrams.emplace_back(t - t_first_frame, line + "\n");
   ASSERT_FALSE(datagrams.empty());
 
   // Replays imu.txt in real time once the tool listens (its stderr says so), the sample at the
   // first frame's timestamp sent as the first frame is read.
   const std::uint16_t port = test::free_udp_port();
   test::UdpReplay sender(port, path("tool_stderr.txt"), datagrams);
-  const test::ToolRun run = scan(seq.string() + " --realtime --imu-udp " + std::to_string(port) + " --out " +
-                                 path("out").string());
+  const test::ToolRun run = scan(seq.string() + " --realtime --imu-udp " + std::to_string(port) +
+                                 " --out " + path("out").string());
   sender.stop();
   ASSERT_EQ(run.exit_code, 0) << run.err;
   ASSERT_GT(sender.sent(), 0u) << "the tool never said it was listening: " << run.err;
@@ -140,13 +141,16 @@ test::OniRecording oni_of(const fs::path& seq) {
   oni.height = k.height;
   oni.horizontal_fov = 2.0 * std::atan(0.5 * k.width / k.fx);
   oni.vertical_fov = 2.0 * std::atan(0.5 * k.height / k.fy);
-  const auto us = [](double seconds) { return static_cast<std::uint64_t>(std::llround(seconds * 1e6)); };
+  const auto us = [](double seconds) {
+    return static_cast<std::uint64_t>(std::llround(seconds * 1e6));
+  };
   for (std::size_t i = 0; i < reader->frame_count(); ++i) {
     auto frame = reader->frame(i);
     EXPECT_TRUE(frame.ok()) << frame.error().describe();
     std::vector<std::uint16_t> mm(frame->depth.data.size());
     for (std::size_t p = 0; p < mm.size(); ++p) {
-      mm[p] = static_cast<std::uint16_t>(std::lround(frame->depth.data[p] * 1000.0 / frame->depth.depth_scale));
+      mm[p] = static_cast<std::uint16_t>(
+          std::lround(frame->depth.data[p] * 1000.0 / frame->depth.depth_scale));
     }
     oni.depth.push_back({us(frame->timestamp), test::oni_depth_bytes(mm)});
     if (frame->color) oni.color.push_back({us(frame->color_timestamp), frame->color->data});
@@ -171,14 +175,17 @@ TEST_F(ScanLive, ScansAnOniRecordingOfASyntheticRoomWithEveryFrameTracked) {
   // --realtime: frames at the recorded pace however slowly the scan takes them, none dropped.
   for (const char* flags : {"", " --realtime"}) {
     const fs::path out = path(*flags != 0 ? "out_realtime" : "out");
-    const test::ToolRun run = scan(recording.string() + flags + " --out " + out.string() + " --quiet");
+    const test::ToolRun run =
+        scan(recording.string() + flags + " --out " + out.string() + " --quiet");
     ASSERT_EQ(run.exit_code, 0) << flags << ": " << run.err;
-    for (const char* file : {"trajectory.txt", "frames.csv", "mesh.glb", "mesh.ply", "summary.json"}) {
+    for (const char* file :
+         {"trajectory.txt", "frames.csv", "mesh.glb", "mesh.ply", "summary.json"}) {
       EXPECT_TRUE(fs::exists(out / file)) << file;
     }
     const nlohmann::json summary = read_json(out / "summary.json");
     EXPECT_EQ(summary["frames"], kFrames) << flags;
-    EXPECT_EQ(tracked_frames(summary), static_cast<std::size_t>(kFrames)) << flags << summary.dump(2);
+    EXPECT_EQ(tracked_frames(summary), static_cast<std::size_t>(kFrames))
+        << flags << summary.dump(2);
     EXPECT_FALSE(summary.contains("stopped_early")) << summary.dump(2);
     EXPECT_GT(summary["mesh_triangles"].get<std::size_t>(), 0u);
 
@@ -187,7 +194,9 @@ TEST_F(ScanLive, ScansAnOniRecordingOfASyntheticRoomWithEveryFrameTracked) {
     ASSERT_TRUE(trajectory.ok()) << trajectory.error().describe();
     ASSERT_EQ(trajectory->size(), static_cast<std::size_t>(kFrames));
     for (std::size_t i = 0; i < trajectory->size(); ++i) {
-      EXPECT_NEAR((*trajectory)[i].timestamp, static_cast<double>(oni.depth[i].timestamp_us) * 1e-6, 1e-6) << i;
+      EXPECT_NEAR((*trajectory)[i].timestamp, static_cast<double>(oni.depth[i].timestamp_us) * 1e-6,
+                  1e-6)
+          << i;
     }
     auto reader = SequenceReader::open(seq);
     ASSERT_TRUE(reader.ok());
@@ -199,7 +208,8 @@ TEST_F(ScanLive, ScansAnOniRecordingOfASyntheticRoomWithEveryFrameTracked) {
 }
 
 TEST_F(ScanLive, CameraInputWithoutACameraFailsCleanly) {
-  const test::ToolRun run = scan("openni2:// --out " + path("out").string() + " --record " + path("rec").string());
+  const test::ToolRun run =
+      scan("openni2:// --out " + path("out").string() + " --record " + path("rec").string());
   EXPECT_EQ(run.exit_code, 1) << run.out << run.err;
   EXPECT_NE(run.err.find("error:"), std::string::npos) << run.err;
   EXPECT_NE(run.err.find("openni2"), std::string::npos) << run.err;

@@ -6,9 +6,8 @@
 
 #include <cstdint>
 #include <filesystem>
-#include <string>
-
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "../support/synth_config.hpp"
 #include "imufusion/synth.hpp"
@@ -24,8 +23,9 @@ inline nlohmann::json read_json(const std::filesystem::path& path) {
 }
 
 /// A 160x120 synthetic sequence of `scene` written to root/name.
-inline std::filesystem::path synthesize_small(const std::filesystem::path& root, const std::string& name,
-                                              synth::SceneKind scene, int frames, std::uint64_t seed) {
+inline std::filesystem::path synthesize_small(const std::filesystem::path& root,
+                                              const std::string& name, synth::SceneKind scene,
+                                              int frames, std::uint64_t seed) {
   const std::filesystem::path dir = root / name;
   auto summary = synth::synthesize(test::small_synth_config(scene, seed, frames), dir);
   EXPECT_TRUE(summary.ok()) << summary.error().describe();
@@ -36,7 +36,9 @@ inline std::filesystem::path synthesize_small(const std::filesystem::path& root,
 class ScanToolTest : public ::testing::Test {
  protected:
   explicit ScanToolTest(const std::string& prefix) : scratch_(prefix) {}
-  void SetUp() override { ASSERT_TRUE(std::filesystem::exists(kScanTool)) << kScanTool << " was not built"; }
+  void SetUp() override {
+    ASSERT_TRUE(std::filesystem::exists(kScanTool)) << kScanTool << " was not built";
+  }
   ToolRun scan(const std::string& args) { return run_tool(kScanTool, args, scratch_.path()); }
   std::filesystem::path path(const std::string& name) const { return scratch_.path() / name; }
 

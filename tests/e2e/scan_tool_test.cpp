@@ -8,11 +8,10 @@
 #include <algorithm>
 #include <filesystem>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "imufusion/mesh.hpp"
 #include "imufusion/reconstructor.hpp"
@@ -53,8 +52,8 @@ std::vector<Row> read_csv(const fs::path& path) {
 
 using test::read_json;
 
-fs::path synthesize(const fs::path& root, const std::string& name, synth::SceneKind scene, int frames,
-                    std::uint64_t seed) {
+fs::path synthesize(const fs::path& root, const std::string& name, synth::SceneKind scene,
+                    int frames, std::uint64_t seed) {
   return test::synthesize_small(root, name, scene, frames, seed);
 }
 
@@ -69,17 +68,22 @@ TEST_F(ScanTool, ScansARoomWithTheImuAndWritesEveryOutput) {
   const auto run = scan(seq.string() + " --out " + out.string() + " --quiet");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.out.find("scanned 36 frames"), std::string::npos) << run.out;
-  for (const char* file : {"trajectory.txt", "frames.csv", "mesh.glb", "mesh.ply", "preview.png", "overview.png", "summary.json"})
+  for (const char* file : {"trajectory.txt", "frames.csv", "mesh.glb", "mesh.ply", "preview.png",
+                           "overview.png", "summary.json"})
     EXPECT_TRUE(fs::exists(out / file)) << file;
 
   const std::string header = test::read_text(out / "frames.csv").substr(0, 100);
-  EXPECT_EQ(header.rfind("timestamp,status,pose_source,icp_iterations,residual,inliers,weight_sum,condition,fused,ms", 0), 0u)
+  EXPECT_EQ(header.rfind("timestamp,status,pose_source,icp_iterations,residual,inliers,weight_sum,"
+                         "condition,fused,ms",
+                         0),
+            0u)
       << header;
   const auto rows = read_csv(out / "frames.csv");
   ASSERT_EQ(rows.size(), 36u);
   EXPECT_EQ(rows[0].at("pose_source"), "initial");
   for (std::size_t i = 1; i < rows.size(); ++i) {
-    EXPECT_EQ(rows[i].at("status"), "tracking") << "frame " << i << ": " << rows[i].at("icp_reason");
+    EXPECT_EQ(rows[i].at("status"), "tracking")
+        << "frame " << i << ": " << rows[i].at("icp_reason");
     EXPECT_EQ(rows[i].at("pose_source"), "icp");
     EXPECT_EQ(rows[i].at("fused"), "1");
     EXPECT_LE(std::stoi(rows[i].at("icp_iterations")), 2);
@@ -181,9 +185,11 @@ TEST_F(ScanTool, WallStretchIsReportedAsLostAndNotFused) {
       if (!row.at("imu_disagreement").empty()) {
         EXPECT_EQ(std::stod(row.at("imu_disagreement")), 0.0) << " t=" << row.at("timestamp");
       }
-      if (row.at("pose_source") == "icp" || row.at("pose_source") == "initial") last_constrained = t;
+      if (row.at("pose_source") == "icp" || row.at("pose_source") == "initial")
+        last_constrained = t;
       if (row.at("pose_source") == "icp_partial") {
-        EXPECT_TRUE(flags.empty()) << "partial alignment without an IMU at t=" << row.at("timestamp");
+        EXPECT_TRUE(flags.empty())
+            << "partial alignment without an IMU at t=" << row.at("timestamp");
         EXPECT_EQ(row.at("icp_reliable"), "0") << " t=" << row.at("timestamp");
         const int directions = std::stoi(row.at("icp_directions"));
         EXPECT_GE(directions, 3) << " t=" << row.at("timestamp");
@@ -191,7 +197,8 @@ TEST_F(ScanTool, WallStretchIsReportedAsLostAndNotFused) {
         if (row.at("status") == "tracking") {
           ++partial;
           EXPECT_EQ(row.at("fused"), "1") << " t=" << row.at("timestamp");
-          EXPECT_LE(t - last_constrained, ReconstructorConfig{}.imu.max_partial_seconds + 1e-6) << " t=" << row.at("timestamp");
+          EXPECT_LE(t - last_constrained, ReconstructorConfig{}.imu.max_partial_seconds + 1e-6)
+              << " t=" << row.at("timestamp");
         }
       }
       if (t >= stretch.begin && t <= stretch.end) {
@@ -202,11 +209,13 @@ TEST_F(ScanTool, WallStretchIsReportedAsLostAndNotFused) {
         EXPECT_EQ(row.at("fused"), "0") << flags << " t=" << row.at("timestamp");
       }
       if (row.at("status") == "lost") {
-        EXPECT_TRUE(row.at("pose_source") == "dead_reckoning" || row.at("pose_source") == "icp_partial")
+        EXPECT_TRUE(row.at("pose_source") == "dead_reckoning" ||
+                    row.at("pose_source") == "icp_partial")
             << flags << " t=" << row.at("timestamp") << " " << row.at("pose_source");
       }
       if (row.at("pose_source") != "initial") {
-        EXPECT_EQ(row.at("imu_rotation"), flags.empty() ? "1" : "0") << flags << " t=" << row.at("timestamp");
+        EXPECT_EQ(row.at("imu_rotation"), flags.empty() ? "1" : "0")
+            << flags << " t=" << row.at("timestamp");
       }
     }
     EXPECT_GT(in_stretch, 50u);
@@ -261,11 +270,13 @@ TEST_F(ScanTool, WallScanWithTheImuRecoversOntoTheModel) {
   // scan's recovery puts them, not where dead reckoning left them (frames.csv): 7.8 mm from the
   // first at worst here, where dead reckoning is 83 cm off (the whole scan settles its stretch
   // after fusing the frame that completes the recovery, the cut one before).
-  const auto first_recovering = std::find_if(rows.begin(), rows.end(), [](const Row& row) { return row.at("status") == "recovering"; });
+  const auto first_recovering = std::find_if(
+      rows.begin(), rows.end(), [](const Row& row) { return row.at("status") == "recovering"; });
   ASSERT_NE(first_recovering, rows.end());
   const auto cut = static_cast<std::size_t>(first_recovering - rows.begin()) + 2;
   const fs::path cut_out = path("wall_imu_cut");
-  const auto cut_run = scan(seq.string() + " --out " + cut_out.string() + " --quiet --frames " + std::to_string(cut));
+  const auto cut_run = scan(seq.string() + " --out " + cut_out.string() + " --quiet --frames " +
+                            std::to_string(cut));
   ASSERT_EQ(cut_run.exit_code, 0) << cut_run.err;
   const auto cut_rows = read_csv(cut_out / "frames.csv");
   ASSERT_EQ(cut_rows.size(), cut);
@@ -277,8 +288,10 @@ TEST_F(ScanTool, WallScanWithTheImuRecoversOntoTheModel) {
   for (std::size_t i = 0; i < cut; ++i) {
     if (cut_rows[i].at("status") != "lost") continue;
     const Eigen::Vector3d target = (*whole)[i].T_world_camera.translation();
-    const Eigen::Vector3d tracked(std::stod(cut_rows[i].at("tx")), std::stod(cut_rows[i].at("ty")), std::stod(cut_rows[i].at("tz")));
-    settled_worst = std::max(settled_worst, ((*settled)[i].T_world_camera.translation() - target).norm());
+    const Eigen::Vector3d tracked(std::stod(cut_rows[i].at("tx")), std::stod(cut_rows[i].at("ty")),
+                                  std::stod(cut_rows[i].at("tz")));
+    settled_worst =
+        std::max(settled_worst, ((*settled)[i].T_world_camera.translation() - target).norm());
     tracked_worst = std::max(tracked_worst, (tracked - target).norm());
   }
   EXPECT_GT(tracked_worst, 0.10);
@@ -311,10 +324,13 @@ TEST_F(ScanTool, ALostStretchIsCorrectedByTheDriftAPartialMoveFoundAtItsEnd) {
     if (rows[i].at("status") != "lost") continue;
     const StampedPose* t = find_pose(*truth, (*estimate)[i].timestamp);
     ASSERT_NE(t, nullptr);
-    const Eigen::Vector3d true_position = first->T_world_camera.inverse() * t->T_world_camera.translation();
-    const Eigen::Vector3d online(std::stod(rows[i].at("tx")), std::stod(rows[i].at("ty")), std::stod(rows[i].at("tz")));
+    const Eigen::Vector3d true_position =
+        first->T_world_camera.inverse() * t->T_world_camera.translation();
+    const Eigen::Vector3d online(std::stod(rows[i].at("tx")), std::stod(rows[i].at("ty")),
+                                 std::stod(rows[i].at("tz")));
     online_worst = std::max(online_worst, (online - true_position).norm());
-    corrected_worst = std::max(corrected_worst, ((*estimate)[i].T_world_camera.translation() - true_position).norm());
+    corrected_worst = std::max(
+        corrected_worst, ((*estimate)[i].T_world_camera.translation() - true_position).norm());
     ++lost;
   }
   EXPECT_GT(lost, 60u);
@@ -325,7 +341,8 @@ TEST_F(ScanTool, ALostStretchIsCorrectedByTheDriftAPartialMoveFoundAtItsEnd) {
 
 TEST_F(ScanTool, KnownPosesAreFusedAsGiven) {
   const fs::path seq = synthesize(scratch_.path(), "room", synth::SceneKind::kRoom, 12, 25);
-  const auto run = scan(seq.string() + " --poses " + (seq / "groundtruth.txt").string() + " --out " + path("known").string() + " --quiet");
+  const auto run = scan(seq.string() + " --poses " + (seq / "groundtruth.txt").string() +
+                        " --out " + path("known").string() + " --quiet");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const auto rows = read_csv(path("known") / "frames.csv");
   ASSERT_EQ(rows.size(), 12u);
@@ -339,7 +356,8 @@ TEST_F(ScanTool, KnownPosesAreFusedAsGiven) {
 }
 
 TEST_F(ScanTool, ScansTheEmbeddedDemoWithoutInput) {
-  const auto run = scan("--demo-dir " + path("demo").string() + " --demo-frames 4 --out " + path("out").string());
+  const auto run = scan("--demo-dir " + path("demo").string() + " --demo-frames 4 --out " +
+                        path("out").string());
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_TRUE(fs::exists(path("demo") / "depth.txt"));
   EXPECT_EQ(read_csv(path("out") / "frames.csv").size(), 4u);
@@ -367,7 +385,8 @@ TEST_F(ScanTool, ACorruptFrameStopsTheScanAndKeepsWhatWasScanned) {
   ASSERT_TRUE(trajectory.ok());
   EXPECT_EQ(trajectory->size(), 6u);
   const auto summary = read_json(path("out") / "summary.json");
-  EXPECT_NE(summary["stopped_early"].get<std::string>().find(name.substr(name.find('/') + 1)), std::string::npos);
+  EXPECT_NE(summary["stopped_early"].get<std::string>().find(name.substr(name.find('/') + 1)),
+            std::string::npos);
   EXPECT_TRUE(fs::exists(path("out") / "mesh.glb"));
 }
 
@@ -387,7 +406,8 @@ TEST_F(ScanTool, BadInputIsRefusedWithAClearMessage) {
   EXPECT_EQ(model.exit_code, 2);
 
   const fs::path seq = synthesize(scratch_.path(), "room", synth::SceneKind::kRoom, 4, 29);
-  auto poses = scan(seq.string() + " --poses " + path("nope.txt").string() + " --out " + path("out2").string());
+  auto poses = scan(seq.string() + " --poses " + path("nope.txt").string() + " --out " +
+                    path("out2").string());
   EXPECT_EQ(poses.exit_code, 1);
   EXPECT_NE(poses.err.find("nope.txt"), std::string::npos) << poses.err;
 }

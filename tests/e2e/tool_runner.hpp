@@ -33,7 +33,8 @@ inline std::string read_text(const std::filesystem::path& path) {
 inline ToolRun run_tool(const std::filesystem::path& tool, const std::string& args,
                         const std::filesystem::path& scratch) {
   const auto out = scratch / "tool_stdout.txt", err = scratch / "tool_stderr.txt";
-  const std::string command = tool.string() + " " + args + " > " + out.string() + " 2> " + err.string();
+  const std::string command =
+      tool.string() + " " + args + " > " + out.string() + " 2> " + err.string();
   const int status = std::system(command.c_str());
   ToolRun run;
   run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -48,9 +49,12 @@ inline pid_t spawn_tool(const std::filesystem::path& tool, const std::vector<std
                         const std::filesystem::path& scratch) {
   posix_spawn_file_actions_t files;
   posix_spawn_file_actions_init(&files);
-  const std::string out = (scratch / "tool_stdout.txt").string(), err = (scratch / "tool_stderr.txt").string();
-  posix_spawn_file_actions_addopen(&files, STDOUT_FILENO, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_addopen(&files, STDERR_FILENO, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  const std::string out = (scratch / "tool_stdout.txt").string(),
+                    err = (scratch / "tool_stderr.txt").string();
+  posix_spawn_file_actions_addopen(&files, STDOUT_FILENO, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
+                                   0644);
+  posix_spawn_file_actions_addopen(&files, STDERR_FILENO, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
+                                   0644);
   std::vector<std::string> argv_text = {tool.string()};
   argv_text.insert(argv_text.end(), args.begin(), args.end());
   std::vector<char*> argv;

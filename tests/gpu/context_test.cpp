@@ -1,15 +1,16 @@
 // The Vulkan runtime: device listing and selection, failures as values, and the validation layer
 // actually reporting misuse (so the GPU tests' "no validation errors" check can fail).
 
-#include <cstdlib>
+#include "vk/context.hpp"
 
 #include <gtest/gtest.h>
 
-#include "vk/buffer.hpp"
-#include "vk/context.hpp"
-#include "vk/pipeline.hpp"
+#include <cstdlib>
+
 #include "gpu_test_env.hpp"
 #include "imufusion/device.hpp"
+#include "vk/buffer.hpp"
+#include "vk/pipeline.hpp"
 
 namespace imufusion {
 namespace {

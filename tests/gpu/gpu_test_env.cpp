@@ -58,7 +58,8 @@ void GpuTest::TearDown() {
   if (errors > 0) {
     const auto messages = context_->validation_messages();
     std::string text;
-    for (std::size_t i = messages.size() - errors; i < messages.size(); ++i) text += "\n" + messages[i];
+    for (std::size_t i = messages.size() - errors; i < messages.size(); ++i)
+      text += "\n" + messages[i];
     ADD_FAILURE() << errors << " Vulkan validation error(s) during this test:" << text;
   }
 }

@@ -4,9 +4,9 @@
 // Vulkan device the tests are skipped with the reason, unless CI or IMUFUSION_REQUIRE_GPU is set,
 // where they fail instead.
 
-#include <memory>
-
 #include <gtest/gtest.h>
+
+#include <memory>
 
 #include "vk/context.hpp"
 

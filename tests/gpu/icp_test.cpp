@@ -5,19 +5,20 @@
 // a pixel boundary, distances at the threshold). The reduction is compared with the reference
 // reduction of the GPU's own rows: relative 1e-4 on every sum, exact counts.
 
-#include <cmath>
+#include "imufusion/icp.hpp"
 
 #include <gtest/gtest.h>
 
-#include "vk/command_sequence.hpp"
+#include <cmath>
+
 #include "gpu/icp_kernels.hpp"
 #include "gpu/preprocessor.hpp"
 #include "gpu_test_env.hpp"
 #include "imufusion/fusion.hpp"
-#include "imufusion/icp.hpp"
 #include "imufusion/synth.hpp"
 #include "imufusion_layouts.h"
 #include "reference/icp_reference.hpp"
+#include "vk/command_sequence.hpp"
 
 namespace imufusion {
 namespace {
@@ -41,9 +42,11 @@ struct Frames {
   Eigen::Isometry3d T_ref_cur;
 };
 
-Frames room_frames(int width, int height, const Eigen::Isometry3d& T_ref_cur, bool noisy_reference) {
+Frames room_frames(int width, int height, const Eigen::Isometry3d& T_ref_cur,
+                   bool noisy_reference) {
   const synth::Scene scene = synth::make_scene(synth::SceneKind::kRoom, 2);
-  const Eigen::Isometry3d T_world_ref = synth::CameraMotion(synth::SceneKind::kRoom, 5).pose_at(2.0);
+  const Eigen::Isometry3d T_world_ref =
+      synth::CameraMotion(synth::SceneKind::kRoom, 5).pose_at(2.0);
   Frames f;
   f.k = synth::default_intrinsics(width, height);
   synth::SensorModel noisy;
@@ -92,12 +95,13 @@ TEST_F(GpuTest, AssociationAndReductionMatchTheReference) {
     ASSERT_TRUE(icp_seq->submit_and_wait().ok());
     auto gpu_eq = kernels->read_equations();
     ASSERT_TRUE(gpu_eq.ok());
-    auto raw_rows = kernels->rows().download_as<float>(static_cast<std::size_t>(kl.width) * kl.height * ICP_ROW_FLOATS);
+    auto raw_rows = kernels->rows().download_as<float>(static_cast<std::size_t>(kl.width) *
+                                                       kl.height * ICP_ROW_FLOATS);
     ASSERT_TRUE(raw_rows.ok());
 
-    const auto expected = reference::icp_associate(cur_maps->vertices[l], cur_maps->normals[l],
-                                                   ref_maps->vertices[l], ref_maps->normals[l], kl,
-                                                   T, max_distance, min_cos, noise, gate);
+    const auto expected =
+        reference::icp_associate(cur_maps->vertices[l], cur_maps->normals[l], ref_maps->vertices[l],
+                                 ref_maps->normals[l], kl, T, max_distance, min_cos, noise, gate);
     std::vector<reference::IcpRow> gpu_rows(expected.size());
     int accept_mismatch = 0, value_mismatch = 0, accepted = 0;
     for (std::size_t i = 0; i < expected.size(); ++i) {
@@ -117,8 +121,10 @@ TEST_F(GpuTest, AssociationAndReductionMatchTheReference) {
       }
       if (!gpu_accepts) continue;
       const bool close = ((g.a - expected[i].a).cwiseAbs().array() <=
-                          1e-4 * (1 + expected[i].a.cwiseAbs().array())).all() &&
-                         std::abs(g.b - expected[i].b) <= 1e-5 && std::abs(g.w - expected[i].w) <= 1e-4;
+                          1e-4 * (1 + expected[i].a.cwiseAbs().array()))
+                             .all() &&
+                         std::abs(g.b - expected[i].b) <= 1e-5 &&
+                         std::abs(g.w - expected[i].w) <= 1e-4;
       value_mismatch += close ? 0 : 1;
     }
     EXPECT_GT(accepted, 50) << "level " << level << " must have correspondences";
@@ -163,7 +169,8 @@ class IcpTrackerTest : public GpuTest, public ::testing::WithParamInterface<bool
 // Reference: the previous noisy frame (frame-to-frame, GetParam() = true) or a noiseless
 // rendering at the reference pose (as a model raycast provides, false).
 TEST_P(IcpTrackerTest, RecoversAKnownMotion) {
-  const Frames f = room_frames(320, 240, motion(2.0, {0.3, 1, -0.2}, {0.03, -0.02, 0.04}), GetParam());
+  const Frames f =
+      room_frames(320, 240, motion(2.0, {0.3, 1, -0.2}, {0.03, -0.02, 0.04}), GetParam());
   DeviceOptions device;
   device.validation = true;
   auto tracker = IcpTracker::create(IcpConfig{}, PreprocessConfig{}, f.k, device);
@@ -197,7 +204,11 @@ TEST_F(GpuTest, FrameToModelRecoversAKnownMotion) {
   ASSERT_TRUE(fusion.ok()) << fusion.error().describe();
   for (int f = 0; f < 6; ++f) {
     const Eigen::Isometry3d T = path.pose_at(1.8 + 0.08 * f);
-    ASSERT_TRUE(fusion->integrate(synth::render_depth(scene, T, k, {}, 40 + static_cast<std::uint64_t>(f)), nullptr, T).ok());
+    ASSERT_TRUE(
+        fusion
+            ->integrate(synth::render_depth(scene, T, k, {}, 40 + static_cast<std::uint64_t>(f)),
+                        nullptr, T)
+            .ok());
   }
   const Eigen::Isometry3d T_world_ref = path.pose_at(2.0);
   auto model = fusion->raycast(T_world_ref);
@@ -232,7 +243,8 @@ TEST_F(GpuTest, AFlatWallIsFlaggedUnreliable) {
   wall.planes.push_back(plane);
   const Intrinsics k = synth::default_intrinsics(160, 120);
   const DepthImage ref = synth::render_depth(wall, Eigen::Isometry3d::Identity(), k, {}, 1);
-  const DepthImage cur = synth::render_depth(wall, motion(0.5, {0, 1, 0}, {0.03, 0.01, 0}), k, {}, 2);
+  const DepthImage cur =
+      synth::render_depth(wall, motion(0.5, {0, 1, 0}, {0.03, 0.01, 0}), k, {}, 2);
   auto tracker = IcpTracker::create(IcpConfig{}, PreprocessConfig{}, k);
   ASSERT_TRUE(tracker.ok());
   ASSERT_TRUE(tracker->set_reference(ref).ok());

@@ -8,17 +8,18 @@
 // of pixels (float rounding moves a few comparisons at discontinuity thresholds), values as above
 // with 1e-4 m / 1e-3.
 
+#include "imufusion/preprocess.hpp"
+
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <cstdint>
 #include <random>
 
-#include <gtest/gtest.h>
-
-#include "vk/command_sequence.hpp"
 #include "gpu/preprocessor.hpp"
 #include "gpu_test_env.hpp"
-#include "imufusion/preprocess.hpp"
 #include "reference/preprocess_reference.hpp"
+#include "vk/command_sequence.hpp"
 
 namespace imufusion {
 namespace {
@@ -60,8 +61,10 @@ DepthImage test_depth(const Intrinsics& k, std::uint32_t seed) {
       z += 0.003 * (unit(rng) - 0.5);
       std::uint16_t raw = static_cast<std::uint16_t>(std::lround(z * depth.depth_scale));
       const double r = unit(rng);
-      if (r < 0.04) raw = 0;                   // dropout
-      else if (r < 0.05) raw = 30000;          // 6 m: beyond max_depth
+      if (r < 0.04)
+        raw = 0;  // dropout
+      else if (r < 0.05)
+        raw = 30000;  // 6 m: beyond max_depth
       depth.data[static_cast<std::size_t>(v) * k.width + u] = raw;
     }
   }
@@ -73,8 +76,10 @@ void expect_depth_near(const FloatImage& gpu, const FloatImage& ref, double tol,
   ASSERT_EQ(gpu.height, ref.height);
   int validity_mismatch = 0, value_mismatch = 0;
   for (std::size_t i = 0; i < gpu.data.size(); ++i) {
-    if ((gpu.data[i] > 0) != (ref.data[i] > 0)) ++validity_mismatch;
-    else if (std::abs(double(gpu.data[i]) - ref.data[i]) > tol) ++value_mismatch;
+    if ((gpu.data[i] > 0) != (ref.data[i] > 0))
+      ++validity_mismatch;
+    else if (std::abs(double(gpu.data[i]) - ref.data[i]) > tol)
+      ++value_mismatch;
   }
   EXPECT_EQ(validity_mismatch, 0) << what;
   EXPECT_EQ(value_mismatch, 0) << what;
@@ -88,8 +93,10 @@ void expect_vectors_near(const Vec4Image& gpu, const Vec4Image& ref, double tol,
   for (std::size_t i = 0; i < gpu.data.size(); ++i) {
     const bool g = gpu.data[i].w() > 0, r = ref.data[i].w() > 0;
     valid += r ? 1 : 0;
-    if (g != r) ++validity_mismatch;
-    else if (g && (gpu.data[i] - ref.data[i]).cwiseAbs().maxCoeff() > tol) ++value_mismatch;
+    if (g != r)
+      ++validity_mismatch;
+    else if (g && (gpu.data[i] - ref.data[i]).cwiseAbs().maxCoeff() > tol)
+      ++value_mismatch;
   }
   EXPECT_GT(valid, 0) << what << ": the test input must produce valid entries";
   EXPECT_LE(validity_mismatch, max_validity_mismatch_fraction * double(gpu.data.size())) << what;
@@ -131,10 +138,11 @@ TEST_P(PreprocessGpuTest, EachKernelMatchesItsReference) {
 
   const FloatImage metres = reference::depth_to_metres(raw, config.min_depth, config.max_depth);
   expect_depth_near(gpu->raw_depth, metres, 1e-6, "depth_to_metres");
-  expect_depth_near(gpu->depth[0],
-                    reference::bilateral(gpu->raw_depth, config.bilateral_radius,
-                                         config.bilateral_sigma_space, config.bilateral_sigma_depth),
-                    1e-5, "bilateral");
+  expect_depth_near(
+      gpu->depth[0],
+      reference::bilateral(gpu->raw_depth, config.bilateral_radius, config.bilateral_sigma_space,
+                           config.bilateral_sigma_depth),
+      1e-5, "bilateral");
   for (int level = 0; level < config.levels; ++level) {
     const auto l = static_cast<std::size_t>(level);
     if (level > 0) {
@@ -201,7 +209,8 @@ TEST_F(GpuTest, PyramidDoesNotAverageAcrossDiscontinuities) {
   raw.height = 8;
   raw.data.resize(96);
   for (int v = 0; v < 8; ++v)
-    for (int u = 0; u < 12; ++u) raw.data[static_cast<std::size_t>(v * 12 + u)] = u <= 4 ? 5000 : 15000;
+    for (int u = 0; u < 12; ++u)
+      raw.data[static_cast<std::size_t>(v * 12 + u)] = u <= 4 ? 5000 : 15000;
   PreprocessConfig config;
   config.levels = 2;
   config.bilateral_radius = 0;

@@ -2,6 +2,8 @@
 // model, the baseline without IMU, dead reckoning through frames without depth and recovery
 // onto the scanned model, known poses, reset, and errors that change nothing.
 
+#include "imufusion/reconstructor.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -15,7 +17,6 @@
 #include "../support/synth_config.hpp"
 #include "gpu_test_env.hpp"
 #include "imufusion/eval.hpp"
-#include "imufusion/reconstructor.hpp"
 #include "imufusion/scan_report.hpp"
 #include "imufusion/sequence.hpp"
 #include "imufusion/synth.hpp"
@@ -34,7 +35,8 @@ class ReconstructorTest : public test::GpuTest {
  protected:
   static void SetUpTestSuite() {
     std::random_device random;
-    root_ = new fs::path(fs::temp_directory_path() / ("imufusion_reconstructor_" + std::to_string(random())));
+    root_ = new fs::path(fs::temp_directory_path() /
+                         ("imufusion_reconstructor_" + std::to_string(random())));
     const synth::SynthConfig config = test::small_synth_config(synth::SceneKind::kRoom, 11, 36);
     synth_ok_ = synth::synthesize(config, *root_ / "room").ok();
   }
@@ -91,7 +93,9 @@ class ReconstructorTest : public test::GpuTest {
     const StampedPose* truth = find_pose(reader_->ground_truth(), pose.timestamp);
     if (truth == nullptr) return std::numeric_limits<double>::infinity();
     const Eigen::Isometry3d T0 = reader_->ground_truth().front().T_world_camera;
-    return ((T0.inverse() * truth->T_world_camera).translation() - pose.T_world_camera.translation()).norm();
+    return ((T0.inverse() * truth->T_world_camera).translation() -
+            pose.T_world_camera.translation())
+        .norm();
   }
 
   // Frames 0 to `last`, those `blank` names with no depth, the accelerometer reading
@@ -116,7 +120,8 @@ class ReconstructorTest : public test::GpuTest {
   }
 
   // The first frame that ended a loss (results.size() when none did).
-  static std::size_t first_recovered(const std::vector<FrameResult>& results, std::size_t from = 0) {
+  static std::size_t first_recovered(const std::vector<FrameResult>& results,
+                                     std::size_t from = 0) {
     std::size_t back = from;
     while (back < results.size() && !results[back].recovered) ++back;
     return back;
@@ -141,7 +146,8 @@ TEST_F(ReconstructorTest, TracksTheRoomWithTheImuInTwoIterationsPerFrame) {
   }
   EXPECT_EQ(results.front().source, PoseSource::kInitial);
   for (std::size_t i = 1; i < results.size(); ++i) {
-    EXPECT_EQ(results[i].status, TrackingStatus::kTracking) << "frame " << i << ": " << results[i].icp.reason;
+    EXPECT_EQ(results[i].status, TrackingStatus::kTracking)
+        << "frame " << i << ": " << results[i].icp.reason;
     EXPECT_TRUE(results[i].fused);
     EXPECT_TRUE(results[i].imu.rotation_from_imu) << "frame " << i;
     EXPECT_LE(results[i].icp.quality.iterations, 2);
@@ -186,7 +192,8 @@ TEST_F(ReconstructorTest, TheSeedGateLeavesWellTrackedFramesAlone) {
     auto r = rec.track_and_fuse(f.timestamp, f.depth, f.color ? &*f.color : nullptr, f.imu);
     ASSERT_TRUE(r.ok()) << r.error().describe();
     EXPECT_EQ(r->status, TrackingStatus::kTracking) << "t=" << f.timestamp << ": " << r->icp.reason;
-    EXPECT_EQ(r->icp.quality.seed_gated_directions, 0) << "t=" << f.timestamp << ": " << r->icp.reason;
+    EXPECT_EQ(r->icp.quality.seed_gated_directions, 0)
+        << "t=" << f.timestamp << ": " << r->icp.reason;
     if (r->imu.translation_inertial) {
       ++inertial;
       EXPECT_GT(r->imu.translation_sigma, 0.0);
@@ -236,7 +243,8 @@ TEST_F(ReconstructorTest, DeadReckonsThroughBlankFramesAndRecoversOntoTheModel) 
     const StampedPose* truth = find_pose(reader_->ground_truth(), results[i].timestamp);
     ASSERT_NE(truth, nullptr);
     const Eigen::Isometry3d T0 = reader_->ground_truth().front().T_world_camera;
-    EXPECT_LT(rotation_deg(T0.inverse() * truth->T_world_camera, results[i].T_world_camera), 1.0) << "frame " << i;
+    EXPECT_LT(rotation_deg(T0.inverse() * truth->T_world_camera, results[i].T_world_camera), 1.0)
+        << "frame " << i;
   }
   // Depth returns at blank_end: ICP must first settle onto the model from the dead-reckoned
   // seed (a frame or two), then count recovery_frames reliable frames before fusing again.
@@ -281,8 +289,10 @@ TEST_F(ReconstructorTest, PlacesTheLostFramesBackwardFromTheRecovery) {
     c.smoothing.retrack_frames = retrack_lost_frames;
     c.relocalization.drift_acceleration = 50;  // the search must reach as far as the jolt drifts
     c.relocalization.interval = 8;
-    c.inertial.gravity_min_time = 0.3;  // the accelerometer in use (and jolted) within this short scan
-    c.inertial.max_speed = 100;  // the 6 m/s fault uncapped: dead reckoning must drift out of ICP's reach
+    c.inertial.gravity_min_time =
+        0.3;  // the accelerometer in use (and jolted) within this short scan
+    c.inertial.max_speed =
+        100;  // the 6 m/s fault uncapped: dead reckoning must drift out of ICP's reach
     Reconstructor rec = make(c);
     results = scan_jolted(
         rec, frames_.size() - 1, [&](std::size_t i) { return i == blank_begin ? 180.0 : 0.0; },
@@ -298,7 +308,8 @@ TEST_F(ReconstructorTest, PlacesTheLostFramesBackwardFromTheRecovery) {
   // Frames settling onto the model after the loss keep the pyramid (the seed carries the drift).
   for (std::size_t i = blank_end; i <= back; ++i)
     EXPECT_GT(results[i].icp.quality.coarse_iterations, 0) << "frame " << i;
-  const std::size_t start = back + 1 - static_cast<std::size_t>(rec.config().tracking.recovery_frames);
+  const std::size_t start =
+      back + 1 - static_cast<std::size_t>(rec.config().tracking.recovery_frames);
   ASSERT_GT(start, blank_end) << "the loss ended before any lost frame had depth";
   // Every lost frame with depth is placed, within a centimetre of the truth, where dead
   // reckoning had it decimetres off. The relocalized frame's successor finds the jolt still in
@@ -311,10 +322,12 @@ TEST_F(ReconstructorTest, PlacesTheLostFramesBackwardFromTheRecovery) {
     if (results[i].status == TrackingStatus::kLost)
       EXPECT_GT(error({results[i].timestamp, results[i].T_world_camera}), 0.1) << "frame " << i;
     else
-      EXPECT_TRUE(results[start].recovery_restarted) << "frame " << i << " recovering before the final count";
+      EXPECT_TRUE(results[start].recovery_restarted)
+          << "frame " << i << " recovering before the final count";
     EXPECT_LT(error(rec.trajectory()[i]), 0.01) << "frame " << i;
   }
-  for (std::size_t i = start; i <= back; ++i) EXPECT_NE(results[i].status, TrackingStatus::kLost) << "frame " << i;
+  for (std::size_t i = start; i <= back; ++i)
+    EXPECT_NE(results[i].status, TrackingStatus::kLost) << "frame " << i;
   if (results[start].recovery_restarted) {
     EXPECT_TRUE(results[start].imu.translation_predicted);
     EXPECT_FALSE(results[start + 1].imu.translation_predicted) << "the velocity was not forgotten";
@@ -366,7 +379,8 @@ TEST_F(ReconstructorTest, ARecoveringFrameFitAtTheWrongPlaceDoesNotEndTheLoss) {
   Reconstructor rec = scan(ReconstructorConfig{}.recovery.agreement_distance, results);
   ASSERT_EQ(results.size(), frames_.size());
   EXPECT_EQ(results[blank_end].status, TrackingStatus::kRecovering);
-  EXPECT_GT(error({results[blank_end].timestamp, results[blank_end].T_world_camera}), 0.05) << "no wrong fit";
+  EXPECT_GT(error({results[blank_end].timestamp, results[blank_end].T_world_camera}), 0.05)
+      << "no wrong fit";
   const FrameResult& next = results[blank_end + 1];
   EXPECT_TRUE(next.recovery_restarted);
   EXPECT_EQ(next.status, TrackingStatus::kRecovering);
@@ -394,7 +408,8 @@ TEST_F(ReconstructorTest, ARecoveringFrameFitAtTheWrongPlaceDoesNotEndTheLoss) {
 TEST_F(ReconstructorTest, ABrokenRecoveryStillReEstimatesTheStretchBeforeIt) {
   const std::size_t blank_begin = 14, placed = 17, broken = 18;
   ReconstructorConfig c = config(true, 2);
-  c.inertial.gravity_min_time = 0.3;  // the accelerometer in use (and jolted) within this short scan
+  c.inertial.gravity_min_time =
+      0.3;  // the accelerometer in use (and jolted) within this short scan
   Reconstructor rec = make(c);
   const std::vector<FrameResult> results = scan_jolted(
       rec, frames_.size() - 1, [&](std::size_t i) { return i == blank_begin ? 12.0 : 0.0; },
@@ -410,7 +425,8 @@ TEST_F(ReconstructorTest, ABrokenRecoveryStillReEstimatesTheStretchBeforeIt) {
   // Tracked, the lost frames carry dead reckoning's drift; re-estimated, they meet the frames
   // ICP placed on either side.
   for (std::size_t i = blank_begin + 1; i < placed; ++i)
-    EXPECT_GT(position_error({results[i].timestamp, results[i].T_world_camera}), 0.015) << "frame " << i;
+    EXPECT_GT(position_error({results[i].timestamp, results[i].T_world_camera}), 0.015)
+        << "frame " << i;
   for (std::size_t i = blank_begin; i <= broken; ++i)
     EXPECT_LT(position_error(rec.trajectory()[i]), 0.01) << "frame " << i;
   const ScanStatistics stats = summarize_scan(results);
@@ -424,12 +440,13 @@ TEST_F(ReconstructorTest, ABrokenRecoveryStillReEstimatesTheStretchBeforeIt) {
 TEST_F(ReconstructorTest, AScanThatEndsWhileRecoveringSettlesItsLastLoss) {
   const std::size_t blank_begin = 14, placed = 17, last = 18;
   ReconstructorConfig c = config(true, 2);
-  c.inertial.gravity_min_time = 0.3;  // the accelerometer in use (and jolted) within this short scan
+  c.inertial.gravity_min_time =
+      0.3;  // the accelerometer in use (and jolted) within this short scan
   Reconstructor rec = make(c);
   ASSERT_GT(c.tracking.recovery_frames, static_cast<int>(last - placed + 1));
-  const std::vector<FrameResult> results =
-      scan_jolted(rec, last, [&](std::size_t i) { return i == blank_begin ? 12.0 : 0.0; },
-                  [&](std::size_t i) { return i >= blank_begin && i < placed; });
+  const std::vector<FrameResult> results = scan_jolted(
+      rec, last, [&](std::size_t i) { return i == blank_begin ? 12.0 : 0.0; },
+      [&](std::size_t i) { return i >= blank_begin && i < placed; });
   ASSERT_EQ(results.size(), last + 1);
   ASSERT_EQ(results[placed].status, TrackingStatus::kRecovering);
   ASSERT_EQ(results[last].status, TrackingStatus::kRecovering);
@@ -445,7 +462,8 @@ TEST_F(ReconstructorTest, AScanThatEndsWhileRecoveringSettlesItsLastLoss) {
   ASSERT_TRUE(again.ok());
   EXPECT_EQ(*again, 0u);
   for (std::size_t i = 0; i < settled.size(); ++i)
-    EXPECT_TRUE(rec.trajectory()[i].T_world_camera.isApprox(settled[i].T_world_camera)) << "frame " << i;
+    EXPECT_TRUE(rec.trajectory()[i].T_world_camera.isApprox(settled[i].T_world_camera))
+        << "frame " << i;
 }
 
 // A sensor's first frames are often empty: the scan starts at the first frame with depth, which
@@ -454,8 +472,9 @@ TEST_F(ReconstructorTest, AScanThatEndsWhileRecoveringSettlesItsLastLoss) {
 TEST_F(ReconstructorTest, TheScanStartsAtItsFirstFrameWithDepth) {
   const std::size_t start = 3;
   Reconstructor rec = make(config(true, 2));
-  const std::vector<FrameResult> results =
-      scan_jolted(rec, frames_.size() - 1, [](std::size_t) { return 0.0; }, [&](std::size_t i) { return i < start; });
+  const std::vector<FrameResult> results = scan_jolted(
+      rec, frames_.size() - 1, [](std::size_t) { return 0.0; },
+      [&](std::size_t i) { return i < start; });
   ASSERT_EQ(results.size(), frames_.size());
   for (std::size_t i = 0; i < start; ++i) {
     EXPECT_EQ(results[i].status, TrackingStatus::kLost) << "frame " << i;
@@ -470,8 +489,10 @@ TEST_F(ReconstructorTest, TheScanStartsAtItsFirstFrameWithDepth) {
     EXPECT_EQ(results[i].status, TrackingStatus::kTracking) << "frame " << i;
     const StampedPose* truth = find_pose(reader_->ground_truth(), results[i].timestamp);
     ASSERT_NE(truth, nullptr);
-    const Eigen::Vector3d expected = (truth_start->T_world_camera.inverse() * truth->T_world_camera).translation();
-    EXPECT_LT((rec.trajectory()[i].T_world_camera.translation() - expected).norm(), 0.01) << "frame " << i;
+    const Eigen::Vector3d expected =
+        (truth_start->T_world_camera.inverse() * truth->T_world_camera).translation();
+    EXPECT_LT((rec.trajectory()[i].T_world_camera.translation() - expected).norm(), 0.01)
+        << "frame " << i;
   }
 }
 
@@ -495,7 +516,9 @@ TEST_F(ReconstructorTest, AScanLostRightAfterItsFirstFrameKeepsFinitePoses) {
     ASSERT_TRUE(T.matrix().allFinite()) << "frame " << i;
   }
   // Dead-reckoned with no velocity yet, they fall up to 3 cm behind; re-estimated, 1.3 mm at most.
-  EXPECT_GT(position_error({results[blank_end - 1].timestamp, results[blank_end - 1].T_world_camera}), 0.02);
+  EXPECT_GT(
+      position_error({results[blank_end - 1].timestamp, results[blank_end - 1].T_world_camera}),
+      0.02);
   for (std::size_t i = 1; i < blank_end; ++i)
     EXPECT_LT(position_error(rec.trajectory()[i]), 0.005) << "frame " << i;
 }
@@ -553,7 +576,8 @@ TEST_F(ReconstructorTest, KnownPosesAreFusedWithoutTracking) {
 
 TEST_F(ReconstructorTest, BadFramesAreErrorsThatChangeNothing) {
   Reconstructor rec = make(config(true, 2));
-  ASSERT_TRUE(rec.track_and_fuse(frames_[0].timestamp, frames_[0].depth, nullptr, frames_[0].imu).ok());
+  ASSERT_TRUE(
+      rec.track_and_fuse(frames_[0].timestamp, frames_[0].depth, nullptr, frames_[0].imu).ok());
   const std::uint32_t blocks = rec.allocated_blocks();
 
   DepthImage small = frames_[1].depth;
@@ -561,11 +585,13 @@ TEST_F(ReconstructorTest, BadFramesAreErrorsThatChangeNothing) {
   small.data.resize(80 * 120);
   auto wrong_size = rec.track_and_fuse(frames_[1].timestamp, small);
   ASSERT_FALSE(wrong_size.ok());
-  EXPECT_NE(wrong_size.error().message.find("80x120"), std::string::npos) << wrong_size.error().message;
+  EXPECT_NE(wrong_size.error().message.find("80x120"), std::string::npos)
+      << wrong_size.error().message;
 
   auto same_time = rec.track_and_fuse(frames_[0].timestamp, frames_[1].depth);
   ASSERT_FALSE(same_time.ok());
-  EXPECT_NE(same_time.error().message.find("does not follow"), std::string::npos) << same_time.error().message;
+  EXPECT_NE(same_time.error().message.find("does not follow"), std::string::npos)
+      << same_time.error().message;
 
   std::vector<ImuSample> bad = frames_[1].imu;
   ASSERT_FALSE(bad.empty());
@@ -586,7 +612,8 @@ TEST_F(ReconstructorTest, BadFramesAreErrorsThatChangeNothing) {
 TEST_F(ReconstructorTest, ResetStartsANewScan) {
   Reconstructor rec = make(config(true, 2));
   for (std::size_t i = 0; i < 4; ++i)
-    ASSERT_TRUE(rec.track_and_fuse(frames_[i].timestamp, frames_[i].depth, nullptr, frames_[i].imu).ok());
+    ASSERT_TRUE(
+        rec.track_and_fuse(frames_[i].timestamp, frames_[i].depth, nullptr, frames_[i].imu).ok());
   ASSERT_TRUE(rec.reset().ok());
   EXPECT_TRUE(rec.trajectory().empty());
   EXPECT_EQ(rec.allocated_blocks(), 0u);
@@ -606,7 +633,8 @@ class FarWallTest : public test::GpuTest {};
 TEST_F(FarWallTest, FarNoisyDepthDoesNotLoseAnAlignedScan) {
   const test::ScratchDir scratch("imufusion_far_wall_");
   const fs::path dir = scratch.path() / "wall";
-  ASSERT_TRUE(synth::synthesize(test::small_synth_config(synth::SceneKind::kWall, 201, 8), dir).ok());
+  ASSERT_TRUE(
+      synth::synthesize(test::small_synth_config(synth::SceneKind::kWall, 201, 8), dir).ok());
   auto reader = SequenceReader::open(dir);
   ASSERT_TRUE(reader.ok()) << reader.error().describe();
   ReconstructorConfig c;
@@ -625,7 +653,8 @@ TEST_F(FarWallTest, FarNoisyDepthDoesNotLoseAnAlignedScan) {
     ASSERT_TRUE(r.ok()) << r.error().describe();
     if (i == 0) continue;
     EXPECT_EQ(r->status, TrackingStatus::kTracking) << "frame " << i << ": " << r->icp.reason;
-    EXPECT_GE(r->icp.quality.inlier_fraction, c.icp.reliability.min_inlier_fraction) << "frame " << i;
+    EXPECT_GE(r->icp.quality.inlier_fraction, c.icp.reliability.min_inlier_fraction)
+        << "frame " << i;
   }
   auto ate = evaluate_ate(reader->ground_truth(), rec->trajectory());
   ASSERT_TRUE(ate.ok()) << ate.error().describe();

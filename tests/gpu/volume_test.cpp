@@ -192,13 +192,15 @@ TEST_F(GpuTest, VolumeFusedObjectsMatchExactDepth) {
     ++exact_hits;
     if (model.vertices.data[i].w() <= 0.0f) continue;
     errors.push_back(std::abs(double(model.vertices.data[i].z()) - exact.data[i]));
-    const int u = static_cast<int>(i % std::size_t(k.width)), v = static_cast<int>(i / std::size_t(k.width));
+    const int u = static_cast<int>(i % std::size_t(k.width)),
+              v = static_cast<int>(i / std::size_t(k.width));
     const Eigen::Vector3d ray_c((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0);
     const auto truth = synth::intersect(scene, pose.translation(), pose.linear() * ray_c);
     if (!truth) continue;
-    const Eigen::Vector3d normal_world = pose.linear() * model.normals.data[i].head<3>().cast<double>();
-    normal_errors.push_back(std::acos(std::clamp(normal_world.dot(truth->normal), -1.0, 1.0)) * 180.0 /
-                            std::numbers::pi);
+    const Eigen::Vector3d normal_world =
+        pose.linear() * model.normals.data[i].head<3>().cast<double>();
+    normal_errors.push_back(std::acos(std::clamp(normal_world.dot(truth->normal), -1.0, 1.0)) *
+                            180.0 / std::numbers::pi);
   }
   ASSERT_GT(errors.size(), exact_hits * 8 / 10) << "the raycast must cover most of the view";
   std::sort(errors.begin(), errors.end());
@@ -212,8 +214,8 @@ TEST_F(GpuTest, VolumeFusedObjectsMatchExactDepth) {
   std::sort(normal_errors.begin(), normal_errors.end());
   const double normal_median = normal_errors[normal_errors.size() / 2];
   const double normal_p90 = normal_errors[normal_errors.size() * 90 / 100];
-  std::cout << "[volume] raycast normals vs exact: median " << normal_median << " deg, 90th percentile "
-            << normal_p90 << " deg" << std::endl;
+  std::cout << "[volume] raycast normals vs exact: median " << normal_median
+            << " deg, 90th percentile " << normal_p90 << " deg" << std::endl;
   EXPECT_LT(normal_median, 6.0) << "90th percentile " << normal_p90;
   EXPECT_LT(normal_p90, 15.0) << "median " << normal_median;
 }

@@ -15,10 +15,10 @@
 
 #include "gpu/volume.hpp"
 #include "gpu_test_env.hpp"
-#include "vk/buffer.hpp"
 #include "imufusion/fusion.hpp"
 #include "imufusion/synth.hpp"
 #include "reference/volume_reference.hpp"
+#include "vk/buffer.hpp"
 
 namespace imufusion::volume_test {
 
@@ -254,11 +254,10 @@ inline VolumeConfig small_config() {
   return config;
 }
 
-
 // The voxels of the blocks the GPU stored, as the reference computes them for those blocks only:
 // `stored` are the GPU's blocks, `frames` everything fused so far.
 inline CpuVolume reference_on_blocks(const VolumeConfig& config, const Blocks& stored,
-                              const std::vector<Frame>& frames, const Intrinsics& k) {
+                                     const std::vector<Frame>& frames, const Intrinsics& k) {
   CpuVolume ref(config);
   for (const Eigen::Vector3i& b : stored) ref.add_block(b);
   for (const Frame& frame : frames) {

@@ -1,3 +1,5 @@
+#include "imufusion/clock_offset.hpp"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -5,7 +7,6 @@
 #include <random>
 #include <string>
 
-#include "imufusion/clock_offset.hpp"
 #include "imufusion/synth.hpp"
 
 namespace imufusion {
@@ -16,10 +17,10 @@ namespace {
 // Wi-Fi-like latency (3 ms plus an exponential tail of mean 10 ms), and ICP rotation rates at
 // 30 Hz with Gaussian noise of 0.03 rad/s (about 0.06 degrees per frame).
 struct Session {
-  std::vector<ImuSample> imu;          // IMU clock
-  std::vector<double> arrival;         // host clock
-  std::vector<double> frame_times;     // host clock
-  std::vector<double> camera_rates;    // rad/s, interval ending at frame_times[k] (k >= 1)
+  std::vector<ImuSample> imu;        // IMU clock
+  std::vector<double> arrival;       // host clock
+  std::vector<double> frame_times;   // host clock
+  std::vector<double> camera_rates;  // rad/s, interval ending at frame_times[k] (k >= 1)
 };
 
 Session make_session(synth::SceneKind kind, std::uint64_t seed, double offset, double duration,
@@ -51,8 +52,8 @@ Session make_session(synth::SceneKind kind, std::uint64_t seed, double offset, d
       const double previous = session.frame_times.back();
       double rate = 0.0;
       if (!still) {
-        const Eigen::Matrix3d R = motion.pose_at(previous).linear().transpose() *
-                                  motion.pose_at(t).linear();
+        const Eigen::Matrix3d R =
+            motion.pose_at(previous).linear().transpose() * motion.pose_at(t).linear();
         rate = Eigen::AngleAxisd(R).angle() / (t - previous);
       }
       session.camera_rates.push_back(std::abs(rate + icp_noise(rng)));
@@ -118,7 +119,8 @@ TEST(ClockOffsetEstimator, ReportsAStandardErrorThatTracksTheActualError) {
   for (const synth::SceneKind kind :
        {synth::SceneKind::kFast, synth::SceneKind::kWall, synth::SceneKind::kRoom}) {
     for (std::uint64_t seed = 1; seed <= 20; ++seed) {
-      const std::string name = std::string(synth::to_string(kind)) + " seed " + std::to_string(seed);
+      const std::string name =
+          std::string(synth::to_string(kind)) + " seed " + std::to_string(seed);
       const double offset = 1234.5 + 0.0371 * static_cast<double>(seed);
       const Session session = make_session(kind, seed, offset, 20.0);
       const ClockOffsetEstimate estimate = run(session, true);
@@ -136,8 +138,8 @@ TEST(ClockOffsetEstimator, ReportsAStandardErrorThatTracksTheActualError) {
       if (estimate.standard_error <= options.max_standard_error) {
         ASSERT_EQ(estimate.source, ClockOffsetEstimate::Source::kCorrelation) << name;
         EXPECT_EQ(estimate.offset, estimate.correlation_offset) << name;
-        EXPECT_NEAR(estimate.confidence,
-                    1.0 - estimate.standard_error / options.max_standard_error, 1e-12);
+        EXPECT_NEAR(estimate.confidence, 1.0 - estimate.standard_error / options.max_standard_error,
+                    1e-12);
       } else {
         // Not sharper than the arrival times: their offset (above the truth by the smallest
         // latency, 3 ms), no confidence.

@@ -1,12 +1,12 @@
 // Host ICP with no GPU: the 6x6 step, the increment, the quality decision, and run_icp over the
 // CPU reference kernels on synthetic frames of the room.
 
+#include <gtest/gtest.h>
+
+#include <Eigen/QR>
 #include <cmath>
 #include <limits>
 #include <vector>
-
-#include <Eigen/QR>
-#include <gtest/gtest.h>
 
 #include "imufusion/icp.hpp"
 #include "imufusion/synth.hpp"
@@ -20,7 +20,8 @@ double rotation_deg(const Eigen::Isometry3d& T) {
   return Eigen::AngleAxisd(T.linear()).angle() * 180.0 / M_PI;
 }
 
-Eigen::Isometry3d small_motion(double angle_deg, const Eigen::Vector3d& axis, const Eigen::Vector3d& t) {
+Eigen::Isometry3d small_motion(double angle_deg, const Eigen::Vector3d& axis,
+                               const Eigen::Vector3d& t) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.linear() = Eigen::AngleAxisd(angle_deg * M_PI / 180.0, axis.normalized()).toRotationMatrix();
   T.translation() = t;
@@ -102,7 +103,8 @@ TEST(IcpStep, TruncatedSolveMovesOnlyAlongWellConditionedDirections) {
   // AtA with three strong and three weak singular directions (a rotated basis, so the directions
   // are not the coordinate axes).
   const Eigen::Matrix<double, 6, 6> Q =
-      Eigen::HouseholderQR<Eigen::Matrix<double, 6, 6>>(Eigen::Matrix<double, 6, 6>::Random()).householderQ();
+      Eigen::HouseholderQR<Eigen::Matrix<double, 6, 6>>(Eigen::Matrix<double, 6, 6>::Random())
+          .householderQ();
   Eigen::Matrix<double, 6, 1> s;
   s << 4.0, 2.0, 1.0, 1e-5, 1e-6, 1e-7;
   NormalEquations eq;
@@ -304,7 +306,6 @@ TEST(IcpCpu, ASingleIterationBudgetIsSpentAtFullResolution) {
   EXPECT_LT(error.translation().norm(), 0.002);
 }
 
-
 TEST(DepthNoiseModel, InformationIsTheInverseVarianceRelativeToTheLeastNoise) {
   const DepthNoiseModel noise;
   EXPECT_DOUBLE_EQ(noise.information(noise.z0), 1.0);
@@ -377,7 +378,8 @@ Eigen::Matrix<double, 6, 1> gate_target(double weak_m) {
 
 Eigen::Matrix<double, 6, 1> gate_singular_values() {
   Eigen::Matrix<double, 6, 1> s;
-  s << 2e4, 2e4, 2e4, 2e4, 2e4, 100;  // tz: kappa 200, between seed_gate_condition and max_condition
+  s << 2e4, 2e4, 2e4, 2e4, 2e4,
+      100;  // tz: kappa 200, between seed_gate_condition and max_condition
   return s;
 }
 

@@ -43,9 +43,9 @@ TEST(ImuLine, SensorstreamWithoutGyroscopeIsIncomplete) {
 
 TEST(ImuLine, MalformedLines) {
   ImuSample sample;
-  for (const char* line : {"1.0 2.0 3.0", "1 2 3 4 5 6 7 8", "1 2 3 nan 5 6 7", "a b c d e f g",
-                           "12.0, 3, 0.1,9.8", "12.0, 99, 1,2,3", "12.0, 3, 0.1,x,0.2, 4, 1,2,3",
-                           "1e999 0 0 0 0 0 0"}) {
+  for (const char* line :
+       {"1.0 2.0 3.0", "1 2 3 4 5 6 7 8", "1 2 3 nan 5 6 7", "a b c d e f g", "12.0, 3, 0.1,9.8",
+        "12.0, 99, 1,2,3", "12.0, 3, 0.1,x,0.2, 4, 1,2,3", "1e999 0 0 0 0 0 0"}) {
     EXPECT_EQ(parse_imu_line(line, &sample), ImuLineKind::kMalformed) << line;
   }
   EXPECT_EQ(parse_imu_line("", &sample), ImuLineKind::kEmpty);

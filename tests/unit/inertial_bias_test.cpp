@@ -55,8 +55,9 @@ TEST(InertialBias, UnreliableFramesAndTheSwitchLeaveItAlone) {
   o.reliable = [](double) { return false; };
   InertialConfig config = config_for(o.imu);
   config.initial_gyro_bias = Eigen::Vector3d(0.001, 0.002, 0.003);
-  EXPECT_TRUE(test::run_true_poses(motion, config, o, bias).status().gyro_bias.isApprox(
-      config.initial_gyro_bias));
+  EXPECT_TRUE(test::run_true_poses(motion, config, o, bias)
+                  .status()
+                  .gyro_bias.isApprox(config.initial_gyro_bias));
   o.reliable = [](double) { return true; };
   config.estimate_gyro_bias = false;
   const InertialStatus st = test::run_true_poses(motion, config, o, bias).status();
@@ -74,7 +75,8 @@ TEST(InertialBias, AnInconsistentReliablePairIsGatedOut) {
   inertial::GyroBiasEstimator estimator(Eigen::Vector3d::Zero(), 0.03, 1e-4, 0.003, 0.1 * kDeg);
   for (int k = 0; k < 90; ++k) {
     const double ta = 0.5 + k / 30.0, tb = ta + 1.0 / 30.0;
-    const Eigen::Matrix3d truth = motion.pose_at(ta).linear().transpose() * motion.pose_at(tb).linear();
+    const Eigen::Matrix3d truth =
+        motion.pose_at(ta).linear().transpose() * motion.pose_at(tb).linear();
     EXPECT_TRUE(estimator.update(
         tb, buffer.integrate(ta, tb, estimator.bias(), Eigen::Matrix3d::Identity()), truth,
         1.0 / 30.0, 0.0));
@@ -83,12 +85,12 @@ TEST(InertialBias, AnInconsistentReliablePairIsGatedOut) {
   EXPECT_LT((before - bias.gyro).norm(), 0.3 * bias.gyro.norm());
   // ICP that "reliably" landed 3 deg off: refused, the estimate does not move.
   const double ta = 3.6, tb = ta + 1.0 / 30.0;
-  const Eigen::Matrix3d wrong = motion.pose_at(ta).linear().transpose() *
-                                motion.pose_at(tb).linear() *
-                                Eigen::AngleAxisd(3.0 * kDeg, Eigen::Vector3d::UnitX()).toRotationMatrix();
-  EXPECT_FALSE(estimator.update(
-      tb, buffer.integrate(ta, tb, estimator.bias(), Eigen::Matrix3d::Identity()), wrong,
-      1.0 / 30.0, 0.0));
+  const Eigen::Matrix3d wrong =
+      motion.pose_at(ta).linear().transpose() * motion.pose_at(tb).linear() *
+      Eigen::AngleAxisd(3.0 * kDeg, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  EXPECT_FALSE(
+      estimator.update(tb, buffer.integrate(ta, tb, estimator.bias(), Eigen::Matrix3d::Identity()),
+                       wrong, 1.0 / 30.0, 0.0));
   EXPECT_EQ(estimator.bias(), before);
   EXPECT_EQ(estimator.rejected(), 1);
 }

@@ -24,10 +24,10 @@ inline double angle_between(const Eigen::Matrix3d& A, const Eigen::Matrix3d& B) 
 }
 
 struct RunOptions {
-  double start = 10.0;      // s, sequence clock of the first frame
-  double duration = 20.0;   // s
+  double start = 10.0;     // s, sequence clock of the first frame
+  double duration = 20.0;  // s
   double fps = 30.0;
-  synth::ImuConfig imu;     // noise, bias and mounting of the generated samples
+  synth::ImuConfig imu;  // noise, bias and mounting of the generated samples
   std::uint64_t seed = 1;
   /// Called after every observe() with the frame index and time.
   std::function<void(const InertialNavigator&, int, double)> after_frame;

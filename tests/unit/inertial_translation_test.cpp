@@ -16,11 +16,12 @@ using test::kDeg;
 
 /// Camera with a constant body rate and constant world acceleration; world z up.
 struct AnalyticMotion {
-  Eigen::Matrix3d R0 = Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  Eigen::Matrix3d R0 =
+      Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
   Eigen::Vector3d omega_camera = Eigen::Vector3d(0.2, -0.4, 0.3);  // rad/s, camera frame
   Eigen::Vector3d p0 = Eigen::Vector3d(1.0, 2.0, 1.5);
   Eigen::Vector3d v0 = Eigen::Vector3d(0.3, -0.2, 0.1);
-  Eigen::Vector3d accel = Eigen::Vector3d::Zero();  // m/s^2, world
+  Eigen::Vector3d accel = Eigen::Vector3d::Zero();       // m/s^2, world
   Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();  // m/s^2, IMU frame, added to readings
   Eigen::Isometry3d T_camera_imu = synth::default_T_camera_imu();
 
@@ -39,8 +40,7 @@ struct AnalyticMotion {
       s.timestamp = t0 + k * 0.005;
       const Eigen::Matrix3d R_wc = pose(s.timestamp).linear();
       // IMU point p_c + R_wc l: its acceleration adds R_wc w x (w x l) for a constant body rate.
-      const Eigen::Vector3d a_imu =
-          accel + R_wc * omega_camera.cross(omega_camera.cross(lever));
+      const Eigen::Vector3d a_imu = accel + R_wc * omega_camera.cross(omega_camera.cross(lever));
       s.gyro = R_ci.transpose() * omega_camera;
       s.accel = (R_wc * R_ci).transpose() * (a_imu - synth::gravity_world()) + accel_bias;
       out.push_back(s);
@@ -117,7 +117,8 @@ struct DeadReckoning {
   double drift = 0;
   InertialStatus tracked_status;
 };
-DeadReckoning dead_reckon(const AnalyticMotion& m, const InertialConfig& base, double tracked, double dark) {
+DeadReckoning dead_reckon(const AnalyticMotion& m, const InertialConfig& base, double tracked,
+                          double dark) {
   InertialConfig config = base;
   config.T_camera_imu = m.T_camera_imu;
   config.estimate_gyro_bias = false;
@@ -163,7 +164,8 @@ TEST(InertialTranslation, AccelerometerBiasIsEstimatedWhileTheDeviceTurns) {
 }
 
 // A constant-velocity navigator given `m`'s samples over [0, seconds].
-InertialNavigator constant_velocity_navigator(const AnalyticMotion& m, const InertialConfig& config, double seconds) {
+InertialNavigator constant_velocity_navigator(const AnalyticMotion& m, const InertialConfig& config,
+                                              double seconds) {
   InertialNavigator nav = InertialNavigator::create(config).value();
   EXPECT_TRUE(nav.add_samples(m.samples(0.0, seconds)).ok());
   return nav;
@@ -192,7 +194,8 @@ TEST(InertialTranslation, DeadReckoningHoldsVelocityUntilItsUncertaintyIsTooLarg
       last_predicted = k;
       // The velocity's uncertainty over the step and the random walk's within it.
       const double sv = nav.status().velocity_sigma, q = config.constant_velocity_process_noise;
-      EXPECT_NEAR(p.translation_sigma, std::sqrt(sv * sv * dt * dt + q * q * dt * dt * dt / 3), 1e-12);
+      EXPECT_NEAR(p.translation_sigma, std::sqrt(sv * sv * dt * dt + q * q * dt * dt * dt / 3),
+                  1e-12);
       if (k > 32) {
         EXPECT_GT(p.translation_sigma, previous_sigma);  // grows while dead reckoning
       }
@@ -242,7 +245,8 @@ TEST(InertialTranslation, ACorrectedVelocityMovesTheNextPrediction) {
   m.omega_camera.setZero();
   InertialNavigator nav = constant_velocity_navigator(m, constant_velocity_config(m), 2.0);
   const double dt = 1.0 / 30.0;
-  for (int k = 1; k <= 5; ++k) nav.observe((k - 1) * dt, k * dt, m.pose((k - 1) * dt), m.pose(k * dt), true);
+  for (int k = 1; k <= 5; ++k)
+    nav.observe((k - 1) * dt, k * dt, m.pose((k - 1) * dt), m.pose(k * dt), true);
   const MotionPrediction before = nav.predict(5 * dt, 6 * dt);
   ASSERT_TRUE(before.translation_predicted);
   const Eigen::Vector3d dv(0.2, -0.1, 0.05);  // world
@@ -250,7 +254,9 @@ TEST(InertialTranslation, ACorrectedVelocityMovesTheNextPrediction) {
   const MotionPrediction after = nav.predict(5 * dt, 6 * dt);
   ASSERT_TRUE(after.translation_predicted);
   EXPECT_LT((nav.status().velocity_world - (m.v0 + dv)).norm(), 1e-9);
-  EXPECT_LT((after.T_a_b.translation() - before.T_a_b.translation() - m.R0.transpose() * dv * dt).norm(), 1e-9);
+  EXPECT_LT(
+      (after.T_a_b.translation() - before.T_a_b.translation() - m.R0.transpose() * dv * dt).norm(),
+      1e-9);
   nav.forget_velocity();
   nav.correct_velocity(dv);
   EXPECT_FALSE(nav.predict(5 * dt, 6 * dt).translation_predicted);
@@ -258,7 +264,8 @@ TEST(InertialTranslation, ACorrectedVelocityMovesTheNextPrediction) {
 
 // Tracks a device at rest for 3 s, gives the navigator a velocity error `dv` (world, m/s), then
 // dead-reckons for `dark` s; the position error at the end (m).
-double drift_from_velocity_error(const InertialConfig& base, const Eigen::Vector3d& dv, double dark) {
+double drift_from_velocity_error(const InertialConfig& base, const Eigen::Vector3d& dv,
+                                 double dark) {
   AnalyticMotion m;
   m.omega_camera.setZero();
   m.v0.setZero();
@@ -292,11 +299,13 @@ TEST(InertialTranslation, LongDeadReckoningStaysWhereAHandHeldDeviceCanBe) {
   const Eigen::Vector3d dv(0.4, -0.2, 0.2);
   const double dark = 20.0;
   EXPECT_NEAR(drift_from_velocity_error(unbounded, dv, dark), dv.norm() * dark, 0.01);
-  const double reach = dv.norm() * (bounded.accelerometer_dead_reckoning_time + bounded.velocity_decay_time);
+  const double reach =
+      dv.norm() * (bounded.accelerometer_dead_reckoning_time + bounded.velocity_decay_time);
   EXPECT_NEAR(drift_from_velocity_error(bounded, dv, dark), reach, 0.05 * reach);
   // A speed no hand-held device reaches is capped.
   const Eigen::Vector3d fast = 5.0 * dv.normalized();
-  const double capped = bounded.max_speed * (bounded.accelerometer_dead_reckoning_time + bounded.velocity_decay_time);
+  const double capped =
+      bounded.max_speed * (bounded.accelerometer_dead_reckoning_time + bounded.velocity_decay_time);
   EXPECT_NEAR(drift_from_velocity_error(bounded, fast, dark), capped, 0.05 * capped);
 }
 

@@ -2,9 +2,8 @@
 // limit, intrinsics no camera has, and IMU samples no real IMU gives. Each is refused or left
 // out with a message naming the file and value, and never hangs or exhausts memory.
 
-#include <gtest/gtest.h>
-
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -97,7 +96,8 @@ TEST(ReadFileBytes, AFileOverItsLimitIsRefusedNamingIt) {
   auto bytes = io::read_file_bytes(dir / "big.txt", 100);
   ASSERT_FALSE(bytes.ok());
   EXPECT_NE(bytes.error().message.find("big.txt"), std::string::npos);
-  EXPECT_NE(bytes.error().message.find("100-byte limit"), std::string::npos) << bytes.error().message;
+  EXPECT_NE(bytes.error().message.find("100-byte limit"), std::string::npos)
+      << bytes.error().message;
   EXPECT_TRUE(io::read_file_bytes(dir / "big.txt", 101).ok());
   EXPECT_EQ(io::read_file_bytes(dir / "none.txt").error().code, ErrorCode::kNotFound);
 }

@@ -69,7 +69,8 @@ TEST(ImuGate, OneLineFarInTheFutureIsAJumpAndTheStreamGoesOn) {
   std::vector<ReceivedImuSample> released;
   for (int i = 0; i < 10; ++i) gate.push(at(0.005 * i), &released);
   EXPECT_EQ(gate.push(at(1e6), &released), ImuVerdict::kHeld);
-  for (int i = 10; i < 20; ++i) EXPECT_EQ(gate.push(at(0.005 * i), &released), ImuVerdict::kAccepted);
+  for (int i = 10; i < 20; ++i)
+    EXPECT_EQ(gate.push(at(0.005 * i), &released), ImuVerdict::kAccepted);
   EXPECT_EQ(gate.time_jumps(), 1u);
   ASSERT_EQ(released.size(), 20u);
   for (std::size_t i = 1; i < released.size(); ++i) {

@@ -2,7 +2,6 @@
 // writes that do not pile up.
 
 #include <gtest/gtest.h>
-
 #include <sys/wait.h>
 #include <unistd.h>
 

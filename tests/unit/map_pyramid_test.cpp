@@ -1,8 +1,8 @@
 // Vertex/normal map pyramids (frame-to-model references) keep surfaces apart at depth jumps.
 
-#include <gtest/gtest.h>
-
 #include "core/map_pyramid.hpp"
+
+#include <gtest/gtest.h>
 
 namespace imufusion {
 namespace {
@@ -16,7 +16,8 @@ TEST(MapPyramid, AveragesBlocksWithoutCrossingDepthJumps) {
   for (int y = 0; y < 4; ++y) {
     for (int x = 0; x < 6; ++x) {
       const float z = x < 3 ? 1.0f : 3.0f;  // the jump lies inside the middle 2x2 blocks
-      v.data[static_cast<std::size_t>(y * 6 + x)] = Eigen::Vector4f(0.01f * static_cast<float>(x), 0.01f * static_cast<float>(y), z, 1.0f);
+      v.data[static_cast<std::size_t>(y * 6 + x)] =
+          Eigen::Vector4f(0.01f * static_cast<float>(x), 0.01f * static_cast<float>(y), z, 1.0f);
       n.data[static_cast<std::size_t>(y * 6 + x)] = Eigen::Vector4f(0, 0, -1, 1);
     }
   }
@@ -27,8 +28,10 @@ TEST(MapPyramid, AveragesBlocksWithoutCrossingDepthJumps) {
   ASSERT_EQ(half.vertices.width, 3);
   ASSERT_EQ(half.vertices.height, 2);
   EXPECT_FLOAT_EQ(half.vertices.data[0].z(), 1.0f);
-  EXPECT_NEAR(half.vertices.data[0].x(), 0.01f * 2 / 3, 1e-6);  // mean of x = 1, 0, 1 (pixel 0 left out)
-  EXPECT_FLOAT_EQ(half.vertices.data[1].z(), 1.0f) << "the block across the jump keeps its near side";
+  EXPECT_NEAR(half.vertices.data[0].x(), 0.01f * 2 / 3,
+              1e-6);  // mean of x = 1, 0, 1 (pixel 0 left out)
+  EXPECT_FLOAT_EQ(half.vertices.data[1].z(), 1.0f)
+      << "the block across the jump keeps its near side";
   EXPECT_FLOAT_EQ(half.vertices.data[2].z(), 3.0f);
   EXPECT_FLOAT_EQ(half.normals.data[1].z(), -1.0f);
   EXPECT_EQ(half.normals.data[1].w(), 1.0f);

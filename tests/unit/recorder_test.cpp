@@ -1,8 +1,9 @@
+#include "imufusion/recorder.hpp"
+
 #include <gtest/gtest.h>
 
 #include <fstream>
 
-#include "imufusion/recorder.hpp"
 #include "imufusion/sequence.hpp"
 #include "imufusion/synth.hpp"
 #include "io_test_fixtures.hpp"
@@ -37,8 +38,8 @@ LiveSession make_session() {
     frame.color_timestamp = t + 0.001;
     session.frames.push_back(std::move(frame));
   }
-  session.imu = synth::generate_imu(motion, synth::ImuConfig{}, synth::draw_imu_bias(3), 19.9,
-                                    20.4, 3);
+  session.imu =
+      synth::generate_imu(motion, synth::ImuConfig{}, synth::draw_imu_bias(3), 19.9, 20.4, 3);
   for (ImuSample& sample : session.imu) sample.timestamp -= session.offset;
   return session;
 }
@@ -70,9 +71,9 @@ TEST(SessionRecorder, RecordsASessionThatReadsBackBitExactly) {
   recorder->set_imu_clock_offset(session.offset - 0.25);  // an early estimate...
   // The queue holds the whole session, so nothing is dropped.
   const std::size_t imu_pushed = push_session(*recorder, session);
-  recorder->push_imu({session.imu.begin() + static_cast<std::ptrdiff_t>(imu_pushed),
-                      session.imu.end()});
-  recorder->push_imu({session.imu.front()});  // stale: dropped
+  recorder->push_imu(
+      {session.imu.begin() + static_cast<std::ptrdiff_t>(imu_pushed), session.imu.end()});
+  recorder->push_imu({session.imu.front()});       // stale: dropped
   recorder->set_imu_clock_offset(session.offset);  // ...refined: the last one counts
   const Status finished = recorder->finish();
   ASSERT_TRUE(finished.ok()) << finished.error().describe();
@@ -143,8 +144,7 @@ TEST(SessionRecorder, FinishSurfacesTheFirstWriteError) {
   recorder->push_frame(session.frames[1]);
   const Status finished = recorder->finish();
   ASSERT_FALSE(finished.ok());
-  EXPECT_NE(finished.error().message.find("depth"), std::string::npos)
-      << finished.error().message;
+  EXPECT_NE(finished.error().message.find("depth"), std::string::npos) << finished.error().message;
   EXPECT_EQ(recorder->finish().error().message, finished.error().message);
   EXPECT_EQ(recorder->stats().frames_written, 0u);
   EXPECT_FALSE(recorder->push_frame(session.frames[2]));

@@ -1,6 +1,11 @@
 // Relocalization's translation search over the model's distance field, the drift correction of
 // a lost stretch, and the surface points of a TSDF snapshot.
 
+#include "core/relocalizer.hpp"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <functional>
@@ -9,12 +14,7 @@
 #include <random>
 #include <vector>
 
-#include <Eigen/Geometry>
-
-#include <gtest/gtest.h>
-
 #include "core/drift_model.hpp"
-#include "core/relocalizer.hpp"
 
 namespace imufusion {
 namespace {
@@ -51,20 +51,22 @@ std::vector<Eigen::Vector3d> room_surface(double step) {
 
 Eigen::Isometry3d camera_pose() {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = (Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(-1.9, Eigen::Vector3d::UnitX()))
+  T.linear() = (Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()) *
+                Eigen::AngleAxisd(-1.9, Eigen::Vector3d::UnitX()))
                    .toRotationMatrix();
   T.translation() = Eigen::Vector3d(1.1, 1.3, 1.4);
   return T;
 }
 
 // The surface points a camera at T would see within 4 m in front of it (a crude frame).
-std::vector<Eigen::Vector3d> frame_points(const std::vector<Eigen::Vector3d>& surface, const Eigen::Isometry3d& T,
-                                          std::size_t stride) {
+std::vector<Eigen::Vector3d> frame_points(const std::vector<Eigen::Vector3d>& surface,
+                                          const Eigen::Isometry3d& T, std::size_t stride) {
   std::vector<Eigen::Vector3d> out;
   const Eigen::Isometry3d inv = T.inverse();
   for (std::size_t i = 0; i < surface.size(); i += stride) {
     const Eigen::Vector3d p = inv * surface[i];
-    if (p.z() > 0.4 && p.z() < 4.0 && std::abs(p.x()) < 0.6 * p.z() && std::abs(p.y()) < 0.45 * p.z())
+    if (p.z() > 0.4 && p.z() < 4.0 && std::abs(p.x()) < 0.6 * p.z() &&
+        std::abs(p.y()) < 0.45 * p.z())
       out.push_back(p);
   }
   return out;
@@ -85,9 +87,11 @@ TEST(SurfaceDistanceField, DistanceToAPlaneWithinACellAndCutOffBeyond) {
 TEST(SurfaceDistanceField, EmptyInputsGiveNoCandidates) {
   const SurfaceDistanceField none({}, 0.05, 0.2);
   EXPECT_TRUE(none.empty());
-  EXPECT_TRUE(none.search({{0, 0, 1}}, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero(), 1.0, 3).empty());
+  EXPECT_TRUE(none.search({{0, 0, 1}}, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero(), 1.0, 3)
+                  .empty());
   const SurfaceDistanceField field(room_surface(0.05), 0.05, 0.2);
-  EXPECT_TRUE(field.search({}, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero(), 1.0, 3).empty());
+  EXPECT_TRUE(
+      field.search({}, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero(), 1.0, 3).empty());
 }
 
 // A frame dead-reckoned 0.7 m off: the best candidate is the true position to within a cell.
@@ -107,7 +111,8 @@ TEST(SurfaceDistanceField, SearchFindsTheTranslationOfAStructuredView) {
   EXPECT_GT(candidates[0].near_fraction, 0.9);
   for (std::size_t i = 1; i < candidates.size(); ++i) {
     EXPECT_GE(candidates[i].cost, candidates[i - 1].cost);
-    EXPECT_GE((candidates[i].translation - candidates[0].translation).cwiseAbs().maxCoeff(), 0.1 - 1e-9);
+    EXPECT_GE((candidates[i].translation - candidates[0].translation).cwiseAbs().maxCoeff(),
+              0.1 - 1e-9);
   }
   // Out of reach: searched within 0.3 m of a position 0.7 m off, the true one is not offered.
   const auto near = field.search(points, T.linear(), T.translation() + drift, 0.3, 3);
@@ -121,7 +126,8 @@ TEST(SurfaceDistanceField, MergedSearchesKeepTheBestDistinctCandidates) {
     c.cost = cost;
     return c;
   };
-  const std::vector<TranslationCandidate> a{at(0.0, 0.3), at(1.0, 0.5)}, b{at(0.02, 0.2), at(2.0, 0.4), at(3.0, 0.9)};
+  const std::vector<TranslationCandidate> a{at(0.0, 0.3), at(1.0, 0.5)},
+      b{at(0.02, 0.2), at(2.0, 0.4), at(3.0, 0.9)};
   const auto merged = merge_candidates(a, b, 3, 0.1);
   ASSERT_EQ(merged.size(), 3u);
   EXPECT_DOUBLE_EQ(merged[0].translation.x(), 0.02);  // the better of the pair 2 cm apart
@@ -175,7 +181,8 @@ std::vector<StretchCorrection> simulate_drift(const std::vector<StretchFrame>& f
   return out;  // the frames, then the end
 }
 
-double worst_translation_error(const std::vector<StretchCorrection>& a, const std::vector<StretchCorrection>& b) {
+double worst_translation_error(const std::vector<StretchCorrection>& a,
+                               const std::vector<StretchCorrection>& b) {
   double worst = 0;
   for (std::size_t k = 0; k < std::min(a.size(), b.size()); ++k)
     worst = std::max(worst, (a[k].translation - b[k].translation).norm());
@@ -276,7 +283,9 @@ TEST(DriftCorrections, ThePositionErrorTellsWhenTheTiltCame) {
   const Eigen::Vector3d g(0.0, 0.0, -9.81), zero = Eigen::Vector3d::Zero();
   const std::vector<StretchFrame> frames = stretch_frames(T, 1.0 / 30.0);
   const Eigen::Vector3d delta_T(0.015, 0.0, 0.0);
-  const auto early = [&](double s) -> Eigen::Vector3d { return delta_T * std::min(1.0, 3.0 * s / T); };
+  const auto early = [&](double s) -> Eigen::Vector3d {
+    return delta_T * std::min(1.0, 3.0 * s / T);
+  };
   const auto truth = simulate_drift(frames, T, early, g, zero, zero);
   DriftPrior random_walk;
   random_walk.gravity_world = g;
@@ -287,9 +296,11 @@ TEST(DriftCorrections, ThePositionErrorTellsWhenTheTiltCame) {
   linear.gyro_bias_sigma = 0.003;
   const auto c = drift_corrections(frames, T, truth.back().translation, delta_T, random_walk);
   const auto l = drift_corrections(frames, T, truth.back().translation, delta_T, linear);
-  const double with_noise = worst_translation_error(c, truth), with_linear = worst_translation_error(l, truth);
+  const double with_noise = worst_translation_error(c, truth),
+               with_linear = worst_translation_error(l, truth);
   EXPECT_LT(with_noise, 0.5 * with_linear) << with_noise << " vs " << with_linear;
-  EXPECT_GT((c[frames.size() / 3].rotation - delta_T / 3.0).norm(), 0.3 * delta_T.norm());  // not linear
+  EXPECT_GT((c[frames.size() / 3].rotation - delta_T / 3.0).norm(),
+            0.3 * delta_T.norm());  // not linear
 }
 
 // A dead-reckoned stretch simulated with a velocity error: ICP fixes the distance to a wall
@@ -303,8 +314,8 @@ TEST(DriftCorrections, FixedDirectionsRestartTheDriftThere) {
   std::vector<StretchFrame> frames = stretch_frames(T, 1.0 / 30.0);
   for (StretchFrame& f : frames)
     if (f.s <= 1.0) f.fixed(0, 0) = 1.0;
-  const auto truth = simulate_drift(frames, T, [](double) { return Eigen::Vector3d::Zero(); }, zero,
-                                    velocity_error, zero);
+  const auto truth = simulate_drift(
+      frames, T, [](double) { return Eigen::Vector3d::Zero(); }, zero, velocity_error, zero);
   const auto c = drift_corrections(frames, T, truth.back().translation, zero, prior);
   std::vector<StretchFrame> plain = frames;
   for (StretchFrame& f : plain) f.fixed.setZero();
@@ -327,8 +338,12 @@ TEST(DriftCorrections, TheEndVelocityIsTheRateTheErrorGrewAtTheEnd) {
   DriftPrior velocity_only, bias_only, both;
   velocity_only.velocity_sigma = both.velocity_sigma = 0.1;
   bias_only.gravity_bias_covariance = both.gravity_bias_covariance = accel_bias_covariance(0.05);
-  EXPECT_LT((*drift_end_velocity(frames, T, translation, zero, velocity_only) - translation / T).norm(), 1e-9);
-  EXPECT_LT((*drift_end_velocity(frames, T, translation, zero, bias_only) - 2 * translation / T).norm(), 1e-9);
+  EXPECT_LT(
+      (*drift_end_velocity(frames, T, translation, zero, velocity_only) - translation / T).norm(),
+      1e-9);
+  EXPECT_LT(
+      (*drift_end_velocity(frames, T, translation, zero, bias_only) - 2 * translation / T).norm(),
+      1e-9);
   const double share = drift_end_velocity(frames, T, translation, zero, both)->dot(translation) /
                        (translation.squaredNorm() / T);
   EXPECT_GT(share, 1.0);
@@ -338,28 +353,34 @@ TEST(DriftCorrections, TheEndVelocityIsTheRateTheErrorGrewAtTheEnd) {
   gyro_bias.gravity_world = g;
   gyro_bias.gyro_bias_sigma = 0.003;
   const Eigen::Vector3d delta_T(0.01, -0.02, 0.005);
-  const auto truth = simulate_drift(frames, T, [&](double s) -> Eigen::Vector3d { return delta_T * s / T; }, g,
-                                    zero, zero);
+  const auto truth = simulate_drift(
+      frames, T, [&](double s) -> Eigen::Vector3d { return delta_T * s / T; }, g, zero, zero);
   // -(delta(s) x g) with delta linear, integrated over [0, T].
-  EXPECT_LT((*drift_end_velocity(frames, T, truth.back().translation, delta_T, gyro_bias) + delta_T.cross(g) * T / 2)
+  EXPECT_LT((*drift_end_velocity(frames, T, truth.back().translation, delta_T, gyro_bias) +
+             delta_T.cross(g) * T / 2)
                 .norm(),
             1e-9);
 
   const Eigen::Vector3d velocity_error(0.12, -0.05, 0.03);
   for (StretchFrame& f : frames)
     if (f.s <= 1.0) f.fixed(0, 0) = 1.0;
-  const auto fixed_truth = simulate_drift(frames, T, [](double) { return Eigen::Vector3d::Zero(); }, zero,
-                                          velocity_error, zero);
-  EXPECT_LT((*drift_end_velocity(frames, T, fixed_truth.back().translation, zero, velocity_only) - velocity_error).norm(),
+  const auto fixed_truth = simulate_drift(
+      frames, T, [](double) { return Eigen::Vector3d::Zero(); }, zero, velocity_error, zero);
+  EXPECT_LT((*drift_end_velocity(frames, T, fixed_truth.back().translation, zero, velocity_only) -
+             velocity_error)
+                .norm(),
             1e-9);
   EXPECT_FALSE(drift_end_velocity(frames, 0.0, translation, zero, velocity_only).has_value());
   // 30 cm in a fifth of a second: 1.5 m/s where the prior allows 0.1 m/s per axis (chi-square
   // 350 against 22.7 for 6 degrees of freedom). Half of it, 0.75 m/s, is still too much (87.5);
   // a twentieth, 75 mm/s, is within it (0.87).
   const std::vector<StretchFrame> short_stretch = stretch_frames(0.2, 1.0 / 30.0);
-  EXPECT_FALSE(drift_end_velocity(short_stretch, 0.2, translation, zero, velocity_only).has_value());
-  EXPECT_FALSE(drift_end_velocity(short_stretch, 0.2, 0.5 * translation, zero, velocity_only).has_value());
-  EXPECT_TRUE(drift_end_velocity(short_stretch, 0.2, 0.05 * translation, zero, velocity_only).has_value());
+  EXPECT_FALSE(
+      drift_end_velocity(short_stretch, 0.2, translation, zero, velocity_only).has_value());
+  EXPECT_FALSE(
+      drift_end_velocity(short_stretch, 0.2, 0.5 * translation, zero, velocity_only).has_value());
+  EXPECT_TRUE(
+      drift_end_velocity(short_stretch, 0.2, 0.05 * translation, zero, velocity_only).has_value());
 }
 
 // Biases are constant in the sensor frame: for a camera that turns a full circle during the
@@ -373,9 +394,11 @@ TEST(DriftCorrections, SensorFrameBiasesTurnWithTheCamera) {
   const Eigen::Vector3d gyro_bias(0.003, -0.002, 0.0003), accel_bias(0.1, -0.05, 0.02);
   std::vector<StretchFrame> frames = stretch_frames(T, 1.0 / 30.0);
   for (StretchFrame& f : frames)
-    f.R_world_camera = Eigen::AngleAxisd(2 * std::numbers::pi * f.s / T, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    f.R_world_camera = Eigen::AngleAxisd(2 * std::numbers::pi * f.s / T, Eigen::Vector3d::UnitZ())
+                           .toRotationMatrix();
   std::vector<StretchCorrection> truth;
-  Eigen::Vector3d r = Eigen::Vector3d::Zero(), p = Eigen::Vector3d::Zero(), v = Eigen::Vector3d::Zero();
+  Eigen::Vector3d r = Eigen::Vector3d::Zero(), p = Eigen::Vector3d::Zero(),
+                  v = Eigen::Vector3d::Zero();
   double last = 0;
   for (std::size_t k = 0; k <= frames.size(); ++k) {
     const StretchFrame& f = frames[std::min(k, frames.size() - 1)];
@@ -392,7 +415,8 @@ TEST(DriftCorrections, SensorFrameBiasesTurnWithTheCamera) {
   prior.gravity_world = g;
   prior.gyro_bias_sigma = 0.003;
   prior.gravity_bias_covariance = accel_bias_covariance(0.05);
-  const auto c = drift_corrections(frames, T, truth.back().translation, truth.back().rotation, prior);
+  const auto c =
+      drift_corrections(frames, T, truth.back().translation, truth.back().rotation, prior);
   EXPECT_LT(worst_translation_error(c, truth), 1e-9);
   double worst_rotation = 0, peak_rotation = 0;
   for (std::size_t k = 0; k < frames.size(); ++k) {
@@ -403,7 +427,8 @@ TEST(DriftCorrections, SensorFrameBiasesTurnWithTheCamera) {
   EXPECT_GT(peak_rotation, 2 * truth.back().rotation.norm());  // the turn undid most of it
   std::vector<StretchFrame> unturned = frames;
   for (StretchFrame& f : unturned) f.R_world_camera.setIdentity();
-  const auto world = drift_corrections(unturned, T, truth.back().translation, truth.back().rotation, prior);
+  const auto world =
+      drift_corrections(unturned, T, truth.back().translation, truth.back().rotation, prior);
   EXPECT_GT(worst_translation_error(world, truth), 0.05);
 }
 
@@ -421,8 +446,9 @@ MovedStretch moved_stretch(double T, double from, double sigma) {
   MovedStretch out;
   out.frames = stretch_frames(T, 1.0 / 30.0);
   const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
-  const auto drift = simulate_drift(out.frames, T, [](double) { return Eigen::Vector3d::Zero(); }, zero,
-                                    Eigen::Vector3d(0.04, -0.02, 0.01), Eigen::Vector3d(0.03, 0.01, -0.02));
+  const auto drift = simulate_drift(
+      out.frames, T, [](double) { return Eigen::Vector3d::Zero(); }, zero,
+      Eigen::Vector3d(0.04, -0.02, 0.01), Eigen::Vector3d(0.03, 0.01, -0.02));
   Eigen::Vector3d moved_so_far = zero;
   for (std::size_t k = 0; k < out.frames.size(); ++k) {
     StretchFrame& f = out.frames[k];
@@ -467,7 +493,8 @@ TEST(DriftCorrections, RecordedMovesMeasureTheDriftBeforeThem) {
   const auto worst_x = [&](const std::vector<StretchCorrection>& corrections) {
     double worst = 0;
     for (std::size_t k = 0; k < corrections.size(); ++k)
-      worst = std::max(worst, std::abs(corrections[k].translation.x() - stretch.truth[k].translation.x()));
+      worst = std::max(worst,
+                       std::abs(corrections[k].translation.x() - stretch.truth[k].translation.x()));
     return worst;
   };
   EXPECT_GT(worst_x(u), 0.1);
@@ -491,12 +518,14 @@ TEST(DriftCorrections, AMoveTheEndErrorContradictsIsNotTaken) {
   wrong[at].moved_sigma = 0.01;
   const auto c = drift_corrections(wrong, T, end, zero, prior);
   const auto u = drift_corrections(stretch.frames, T, end, zero, prior);
-  for (std::size_t k = 0; k < c.size(); ++k) EXPECT_LT((c[k].translation - u[k].translation).norm(), 1e-9) << k;
+  for (std::size_t k = 0; k < c.size(); ++k)
+    EXPECT_LT((c[k].translation - u[k].translation).norm(), 1e-9) << k;
   // Taken as exact (the rule for directions fixed within ICP's reach), the claim forces the
   // whole x drift into the last 0.1 s.
   wrong[at].moved_sigma = 0;
   const auto exact = drift_corrections(wrong, T, end, zero, prior);
-  EXPECT_GT(worst_translation_error(exact, stretch.truth), worst_translation_error(u, stretch.truth) + 0.05);
+  EXPECT_GT(worst_translation_error(exact, stretch.truth),
+            worst_translation_error(u, stretch.truth) + 0.05);
 }
 
 // The error grew fast early in the stretch and then ever slower (a velocity error that an
@@ -510,8 +539,8 @@ TEST(DriftCorrections, FramesObservedAtTheEndShowHowFastTheErrorStillGrew) {
   const Eigen::Vector3d v0(0.1, -0.05, 0.02);
   const Eigen::Vector3d accel_bias = -v0 / T;  // the velocity error is nil at the end
   std::vector<StretchFrame> frames = stretch_frames(T, 1.0 / 30.0);
-  const auto truth =
-      simulate_drift(frames, T, [](double) { return Eigen::Vector3d::Zero(); }, zero, v0, accel_bias);
+  const auto truth = simulate_drift(
+      frames, T, [](double) { return Eigen::Vector3d::Zero(); }, zero, v0, accel_bias);
   const DriftPrior prior = velocity_and_bias_prior();
   const Eigen::Vector3d end = truth.back().translation;
   const auto end_only = drift_corrections(frames, T, end, zero, prior);
@@ -522,7 +551,8 @@ TEST(DriftCorrections, FramesObservedAtTheEndShowHowFastTheErrorStillGrew) {
     frames[k].observed_sigma = sigma;
   }
   const auto observed = drift_corrections(frames, T, end, zero, prior);
-  const double before = worst_translation_error(end_only, truth), after = worst_translation_error(observed, truth);
+  const double before = worst_translation_error(end_only, truth),
+               after = worst_translation_error(observed, truth);
   EXPECT_GT(before, 0.03);
   EXPECT_LT(after, 0.3 * before) << after << " vs " << before;
 }
@@ -537,7 +567,7 @@ TEST(VolumeSurfacePoints, TakesObservedVoxelsNearTheZeroCrossing) {
       for (int i = 0; i < kBlockSide; ++i) {
         Voxel& v = block.voxels[static_cast<std::size_t>(voxel_index(i, j, k))];
         v.tsdf = 0.3f * static_cast<float>(k - 4);  // zero crossing at k = 4
-        v.weight = j == 7 ? 0.0f : 5.0f;             // one row never observed
+        v.weight = j == 7 ? 0.0f : 5.0f;            // one row never observed
       }
   volume.blocks.push_back(block);
   const auto points = volume_surface_points(volume);

@@ -1,10 +1,11 @@
-#include <string>
-#include <utility>
+#include "imufusion/result.hpp"
 
 #include <gtest/gtest.h>
 
+#include <string>
+#include <utility>
+
 #include "imufusion/reconstructor.hpp"
-#include "imufusion/result.hpp"
 
 using namespace imufusion;
 

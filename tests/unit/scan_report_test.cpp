@@ -1,17 +1,18 @@
 // summarize_scan: the counts imufusion-scan's summary.json and the benchmarks report, from
 // per-frame results alone.
 
+#include "imufusion/scan_report.hpp"
+
 #include <gtest/gtest.h>
 
 #include <vector>
-
-#include "imufusion/scan_report.hpp"
 
 namespace imufusion {
 namespace {
 
 // Frames with the given statuses; `recovered` marks the frames that ended a loss.
-std::vector<FrameResult> frames(const std::vector<TrackingStatus>& statuses, const std::vector<std::size_t>& recovered) {
+std::vector<FrameResult> frames(const std::vector<TrackingStatus>& statuses,
+                                const std::vector<std::size_t>& recovered) {
   std::vector<FrameResult> out(statuses.size());
   for (std::size_t i = 0; i < statuses.size(); ++i) {
     out[i].index = i;
@@ -37,8 +38,9 @@ TEST(SummarizeScan, CountsARecoveryThatBrokeApartFromTheOneThatEndedTheLoss) {
   EXPECT_EQ(s.broken_recoveries, 1u);
   ASSERT_EQ(s.recovery_frames.size(), 1u);
   EXPECT_EQ(s.recovery_frames[0], 7u);  // from the first lost frame (2) to the one that tracked (9)
-  EXPECT_DOUBLE_EQ(s.median_icp_iterations, 10);  // seven of the ten frames ICP ran on are not tracking
-  EXPECT_DOUBLE_EQ(s.median_icp_iterations_tracking, 2);  // frames 1, 9 and 10
+  EXPECT_DOUBLE_EQ(s.median_icp_iterations,
+                   10);  // seven of the ten frames ICP ran on are not tracking
+  EXPECT_DOUBLE_EQ(s.median_icp_iterations_tracking, 2);             // frames 1, 9 and 10
   EXPECT_DOUBLE_EQ(s.mean_icp_iterations, (3 * 2 + 7 * 10) / 10.0);  // frame 0 ran no ICP
 }
 
@@ -60,7 +62,8 @@ TEST(SummarizeScan, AScanThatEndsWhileRecoveringHasNoRecoveryAndNoBreak) {
 // each): the same figures, the frames placed at finish() included.
 TEST(ScanSummary, FrameByFrameGivesWhatSummarizeScanGives) {
   std::vector<FrameResult> scan = frames({T, T, L, L, R, L, L, R, R, T, T}, {9});
-  for (std::size_t i = 0; i < scan.size(); ++i) scan[i].timings.total_ms = 10.0 + static_cast<double>(i % 4);
+  for (std::size_t i = 0; i < scan.size(); ++i)
+    scan[i].timings.total_ms = 10.0 + static_cast<double>(i % 4);
   scan[3].fused = true;
   scan[3].integration.pool_full = 5;
   scan[6].fused = true;

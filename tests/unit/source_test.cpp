@@ -1,3 +1,5 @@
+#include "imufusion/source.hpp"
+
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -7,7 +9,6 @@
 #include "../support/oni_writer.hpp"
 #include "imufusion/imu_stream.hpp"
 #include "imufusion/sequence.hpp"
-#include "imufusion/source.hpp"
 #include "imufusion/synth.hpp"
 #include "io/frame_pacer.hpp"
 #include "io_test_fixtures.hpp"
@@ -339,8 +340,7 @@ TEST(OniPlayback, AnInterruptedRecordingPlaysItsCompleteFramesThenFails) {
   auto end = (*source)->next();
   ASSERT_FALSE(end.ok());
   EXPECT_EQ(end.error().code, ErrorCode::kParseError);
-  EXPECT_NE(end.error().message.find("interrupted.oni"), std::string::npos)
-      << end.error().message;
+  EXPECT_NE(end.error().message.find("interrupted.oni"), std::string::npos) << end.error().message;
   EXPECT_NE(end.error().message.find("after frame 6"), std::string::npos) << end.error().message;
 }
 
@@ -375,8 +375,7 @@ TEST(OpenNI2Camera, TheDummyDeviceStreamsLiveFramesOnTheHostClock) {
   source = open_frame_source("openni2://Dummy", options);
   ASSERT_FALSE(source.ok());
   EXPECT_EQ(source.error().code, ErrorCode::kUnsupported);
-  EXPECT_NE(source.error().message.find("320x240@30"), std::string::npos)
-      << source.error().message;
+  EXPECT_NE(source.error().message.find("320x240@30"), std::string::npos) << source.error().message;
 
   options.depth_mode = DepthMode{320, 240, 30};
   const double opened_at = host_clock_now();

@@ -1,7 +1,7 @@
+#include <gtest/gtest.h>
+
 #include <limits>
 #include <string>
-
-#include <gtest/gtest.h>
 
 #include "imufusion/tracking.hpp"
 
@@ -146,8 +146,8 @@ TEST(TrackingStateMachine, ResetForgetsEverything) {
 TEST(TrackingStateMachine, NamesRoundTrip) {
   for (auto s : {TrackingStatus::kTracking, TrackingStatus::kLost, TrackingStatus::kRecovering})
     EXPECT_EQ(parse_tracking_status(to_string(s)), s);
-  for (auto s : {PoseSource::kInitial, PoseSource::kIcp, PoseSource::kIcpPartial, PoseSource::kDeadReckoning,
-                 PoseSource::kKnown})
+  for (auto s : {PoseSource::kInitial, PoseSource::kIcp, PoseSource::kIcpPartial,
+                 PoseSource::kDeadReckoning, PoseSource::kKnown})
     EXPECT_EQ(parse_pose_source(to_string(s)), s);
   EXPECT_EQ(std::string(to_string(PoseSource::kIcpPartial)), "icp_partial");
   EXPECT_FALSE(parse_tracking_status("tracked").has_value());
@@ -182,7 +182,6 @@ TEST(TrackingStateMachine, PartialIcpNeitherRecoversNorCountsWhileLost) {
   expect(m.step(true, true), TrackingStatus::kRecovering, PoseSource::kIcp, false);
   expect(m.step(true, true), TrackingStatus::kTracking, PoseSource::kIcp, true);
 }
-
 
 TEST(PairingReference, LowersThePairingTestsToWhatAlignedFramesPair) {
   TrackingConfig config;

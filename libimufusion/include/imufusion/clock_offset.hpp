@@ -68,7 +68,7 @@ struct ClockOffsetOptions {
 struct ClockOffsetEstimate {
   enum class Source { kNone, kArrival, kCorrelation };
   Source source = Source::kNone;
-  double offset = 0.0;       // seconds
+  double offset = 0.0;  // seconds
   /// In [0, 1]: 0 for kNone and kArrival (an upper bound only, biased by the smallest
   /// latency); for kCorrelation 1 - standard_error / max_standard_error (1: exact, 0: at the
   /// limit of acceptance).
@@ -84,7 +84,7 @@ struct ClockOffsetEstimate {
   /// The correlation's offset, also when it was not accepted (then `offset` is the arrival
   /// time's); 0 when no correlation was computed.
   double correlation_offset = 0.0;
-  double correlation = 0.0;  // peak normalized cross-correlation (when computed), else 0
+  double correlation = 0.0;   // peak normalized cross-correlation (when computed), else 0
   std::size_t intervals = 0;  // camera intervals used
 };
 

@@ -14,13 +14,13 @@ enum class DeviceType { kDiscreteGpu, kIntegratedGpu, kVirtualGpu, kCpu, kOther 
 const char* to_string(DeviceType type);
 
 struct DeviceInfo {
-  int index = -1;             // position in the Vulkan physical-device list
-  std::string name;           // e.g. "NVIDIA H100", "llvmpipe (LLVM 15.0.6, 256 bits)"
+  int index = -1;    // position in the Vulkan physical-device list
+  std::string name;  // e.g. "NVIDIA H100", "llvmpipe (LLVM 15.0.6, 256 bits)"
   DeviceType type = DeviceType::kOther;
-  std::string driver;         // driver name and info, e.g. "llvmpipe Mesa 22.3.6"
-  std::uint32_t api_version = 0;     // VK_MAKE_API_VERSION encoding
+  std::string driver;                    // driver name and info, e.g. "llvmpipe Mesa 22.3.6"
+  std::uint32_t api_version = 0;         // VK_MAKE_API_VERSION encoding
   std::uint64_t device_local_bytes = 0;  // size of the largest device-local heap
-  bool timestamps = false;    // whether per-kernel GPU timings are available
+  bool timestamps = false;               // whether per-kernel GPU timings are available
 };
 
 /// How to pick and set up a device.

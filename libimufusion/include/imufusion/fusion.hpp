@@ -18,12 +18,12 @@ namespace imufusion {
 
 /// What one integration did, and what went wrong without corrupting the volume.
 struct IntegrationStats {
-  std::uint32_t visible_blocks = 0;     // blocks touched by this frame and fused
-  std::uint32_t allocated_blocks = 0;   // blocks in the pool after it
-  std::uint32_t pool_full = 0;          // blocks touched by this frame that have no room in the
-                                        // full pool, refused now or in an earlier frame (not fused)
-  std::uint32_t table_full = 0;         // insertions that found no free hash slot (not fused)
-  std::uint32_t out_of_range = 0;       // block coordinates beyond the key range (not fused)
+  std::uint32_t visible_blocks = 0;    // blocks touched by this frame and fused
+  std::uint32_t allocated_blocks = 0;  // blocks in the pool after it
+  std::uint32_t pool_full = 0;         // blocks touched by this frame that have no room in the
+                                       // full pool, refused now or in an earlier frame (not fused)
+  std::uint32_t table_full = 0;        // insertions that found no free hash slot (not fused)
+  std::uint32_t out_of_range = 0;      // block coordinates beyond the key range (not fused)
 };
 
 /// A raycast of the model from a pose, at the depth image's resolution.

@@ -6,13 +6,12 @@
 // Frames: the current frame's camera is "cur", the reference's (the previous frame, or the
 // model raycast at a predicted pose) is "ref". ICP estimates T_ref_cur (cur -> ref coordinates).
 
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <array>
 #include <cstdint>
 #include <memory>
 #include <vector>
-
-#include <Eigen/Core>
-#include <Eigen/Geometry>
 
 #include "imufusion/device.hpp"
 #include "imufusion/preprocess.hpp"
@@ -60,9 +59,13 @@ struct NormalEquations {
   double inlier_information = 0;
 
   /// The paired share of the valid pixels, each counted by its information (0 when none).
-  double inlier_fraction() const { return valid_information > 0 ? inlier_information / valid_information : 0; }
+  double inlier_fraction() const {
+    return valid_information > 0 ? inlier_information / valid_information : 0;
+  }
   /// The paired share of the valid pixels, each counting one (0 when none).
-  double pixel_fraction() const { return valid_pixels > 0 ? double(inliers) / double(valid_pixels) : 0; }
+  double pixel_fraction() const {
+    return valid_pixels > 0 ? double(inliers) / double(valid_pixels) : 0;
+  }
 };
 
 /// Thresholds of the reliable / unreliable decision, measured with bench/icp_calibration on 1080
@@ -83,13 +86,13 @@ struct IcpReliabilityThresholds {
   /// slid along the model leaves its far pixels unpaired, which the information-weighted
   /// fraction barely sees. Below the 37-40 % that an aligned frame facing a far room pairs.
   double min_pixel_fraction = 0.35;
-  std::uint64_t min_inliers = 100;           // a floor for tiny images
+  std::uint64_t min_inliers = 100;  // a floor for tiny images
 };
 
 struct IcpConfig {
   /// Gauss-Newton iterations allowed per pyramid level, coarsest last (level 0 = full size).
   std::vector<int> iterations_per_level = {10, 5, 4};
-  int max_total_iterations = 30;     // cap over all levels (1 = the paper's IMU setting)
+  int max_total_iterations = 30;  // cap over all levels (1 = the paper's IMU setting)
   /// Correspondence rejection per level: point distance (m) and normal angle (deg).
   std::vector<float> max_distance = {0.10f, 0.15f, 0.20f};
   std::vector<float> max_normal_angle_deg = {20.f, 25.f, 30.f};
@@ -153,17 +156,17 @@ struct IcpConfig {
 
 /// ICP quality, from the last Gauss-Newton step at the finest level run.
 struct IcpQuality {
-  double residual = 0;            // r = sum w (a.x - b)^2 at the solution x, m^2
-  double residual_per_inlier = 0; // r / n
-  double residual_per_weight = 0; // r / sum(w)
-  std::uint64_t inliers = 0;      // n
-  double inlier_fraction = 0;     // inlier_information / valid_information (NormalEquations)
-  double pixel_fraction = 0;      // inliers / valid_pixels
-  double weight_sum = 0;          // sum(w)
-  double condition = 0;           // kappa = sigma_max / sigma_min of AtA (inf when singular)
-  int iterations = 0;             // Gauss-Newton steps run, all levels
-  int coarse_iterations = 0;      // of those, the steps run below full resolution (levels 1..)
-  bool converged = false;         // the finest level's update fell below the thresholds
+  double residual = 0;             // r = sum w (a.x - b)^2 at the solution x, m^2
+  double residual_per_inlier = 0;  // r / n
+  double residual_per_weight = 0;  // r / sum(w)
+  std::uint64_t inliers = 0;       // n
+  double inlier_fraction = 0;      // inlier_information / valid_information (NormalEquations)
+  double pixel_fraction = 0;       // inliers / valid_pixels
+  double weight_sum = 0;           // sum(w)
+  double condition = 0;            // kappa = sigma_max / sigma_min of AtA (inf when singular)
+  int iterations = 0;              // Gauss-Newton steps run, all levels
+  int coarse_iterations = 0;       // of those, the steps run below full resolution (levels 1..)
+  bool converged = false;          // the finest level's update fell below the thresholds
   /// Directions of the last step updated by ICP: 6 unless degeneracy-aware solving left some at
   /// the initial pose.
   int constrained_directions = 6;

@@ -60,7 +60,7 @@ struct ImuSampleLimits {
 
 /// One received sample with the host time its datagram arrived (host_clock_now()).
 struct ReceivedImuSample {
-  ImuSample sample;         // on the phone's clock
+  ImuSample sample;  // on the phone's clock
   double host_receive_time = 0;
 };
 
@@ -91,7 +91,8 @@ struct ImuStreamStats {
 
 /// Receives IMU lines on a UDP socket in a background thread. Never blocks the caller: the
 /// scanner polls take_samples() once per frame. Malformed lines, samples out of order,
-/// implausible samples and jumps in time are counted and dropped, never fatal. Move-only; the destructor stops the thread.
+/// implausible samples and jumps in time are counted and dropped, never fatal. Move-only; the
+/// destructor stops the thread.
 class ImuUdpListener {
  public:
   /// Binds the socket and starts the thread. Fails (kInvalidArgument) on an address that is

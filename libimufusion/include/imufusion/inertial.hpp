@@ -149,9 +149,9 @@ struct MotionPrediction {
 
 /// Per-frame report of the estimators.
 struct InertialStatus {
-  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();  // rad/s, IMU frame, current estimate
+  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();        // rad/s, IMU frame, current estimate
   Eigen::Vector3d gyro_bias_sigma = Eigen::Vector3d::Zero();  // rad/s, 1 sigma per axis
-  int bias_updates = 0;   // reliable pairs used
+  int bias_updates = 0;                                       // reliable pairs used
   int bias_rejected = 0;  // reliable pairs refused by the consistency gate
   /// The mounting rotation in use (maps IMU into camera coordinates).
   Eigen::Quaterniond R_camera_imu = Eigen::Quaterniond::Identity();
@@ -165,8 +165,8 @@ struct InertialStatus {
   bool gravity_ready = false;
   Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();        // m/s^2, IMU frame
   Eigen::Vector3d accel_bias_sigma = Eigen::Vector3d::Zero();  // m/s^2, 1 sigma per axis
-  Eigen::Vector3d velocity_world = Eigen::Vector3d::Zero();  // m/s, IMU point, world frame
-  double velocity_sigma = 0;                                  // m/s, 1 sigma per axis
+  Eigen::Vector3d velocity_world = Eigen::Vector3d::Zero();    // m/s, IMU point, world frame
+  double velocity_sigma = 0;                                   // m/s, 1 sigma per axis
 };
 
 class InertialNavigator {

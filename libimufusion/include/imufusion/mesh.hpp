@@ -20,10 +20,10 @@ struct Scene;
 }
 
 struct Mesh {
-  std::vector<Eigen::Vector3f> vertices;               // metres, world frame
-  std::vector<Eigen::Vector3f> normals;                // unit, one per vertex
-  std::vector<std::array<std::uint8_t, 3>> colors;     // RGB per vertex (empty: no colour)
-  std::vector<std::array<std::uint32_t, 3>> triangles; // counter-clockwise seen from outside
+  std::vector<Eigen::Vector3f> vertices;                // metres, world frame
+  std::vector<Eigen::Vector3f> normals;                 // unit, one per vertex
+  std::vector<std::array<std::uint8_t, 3>> colors;      // RGB per vertex (empty: no colour)
+  std::vector<std::array<std::uint32_t, 3>> triangles;  // counter-clockwise seen from outside
 };
 
 /// Checks that a mesh is well formed: one normal per vertex, colours absent or one per vertex,

@@ -21,6 +21,8 @@
 // fused, and ICP keeps trying against the model raycast from the dead-reckoned pose: recovery
 // is ICP converging reliably onto the already scanned model.
 
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -29,9 +31,6 @@
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <Eigen/Core>
-#include <Eigen/Geometry>
 
 #include "imufusion/device.hpp"
 #include "imufusion/fusion.hpp"
@@ -67,9 +66,9 @@ struct ImuAidConfig {
 /// (another fit elsewhere) takes nothing.
 struct RelocalizationConfig {
   bool enabled = true;
-  int interval = 5;       // lost frames between searches
-  double cell = 0.05;     // m: the distance field's cell
-  int candidates = 3;     // best fits ICP runs from
+  int interval = 5;    // lost frames between searches
+  double cell = 0.05;  // m: the distance field's cell
+  int candidates = 3;  // best fits ICP runs from
   /// m/s^2: the radius is the drift of this false acceleration since the last fully constrained
   /// frame (0.5 a t^2), from the coarsest ICP level's reach up to max_radius (m).
   double drift_acceleration = 0.17;
@@ -78,9 +77,9 @@ struct RelocalizationConfig {
 
 /// How a lost frame settles onto the model again.
 struct RecoveryConfig {
-  int icp_iterations = 10;               // Gauss-Newton steps per frame while lost or recovering
-  double converged_rotation = 1e-3;      // rad per step that counts as settled
-  double converged_translation = 1e-3;   // m per step that counts as settled
+  int icp_iterations = 10;              // Gauss-Newton steps per frame while lost or recovering
+  double converged_rotation = 1e-3;     // rad per step that counts as settled
+  double converged_translation = 1e-3;  // m per step that counts as settled
   /// m: a recovering frame settling farther than this from its predicted seed restarts the
   /// recovery's count (one of the frames counted fit the model at the wrong place); 0: off.
   double agreement_distance = 0.05;
@@ -92,11 +91,12 @@ struct RecoveryConfig {
 /// the recovery, the rest by the drift model (src/core/drift_model.hpp) with the inertial
 /// estimates' sigmas as the prior.
 struct LossSmoothingConfig {
-  double gyro_bias_sigma_scale = 0.3;  // the prior's gyro bias sigma over the reported one
-  double gravity_sigma_scale = 2.3;    // the same for gravity and the accelerometer bias
-  int retrack_frames = 150;            // lost frames whose depth is kept (2 bytes/pixel); 0: none
+  double gyro_bias_sigma_scale = 0.3;    // the prior's gyro bias sigma over the reported one
+  double gravity_sigma_scale = 2.3;      // the same for gravity and the accelerometer bias
+  int retrack_frames = 150;              // lost frames whose depth is kept (2 bytes/pixel); 0: none
   double retracked_frame_sigma = 0.003;  // m per axis: a backward-placed frame's position error
-  double partial_move_sigma = 0.01;  // m per axis: a partial frame's move late in a long loss; 0: off
+  double partial_move_sigma =
+      0.01;  // m per axis: a partial frame's move late in a long loss; 0: off
 };
 
 struct ReconstructorConfig {
@@ -142,8 +142,9 @@ struct FrameResult {
   /// (their poses in trajectory()). For the last frame of a scan that ends while recovering, the
   /// scanner adds those finish() placed.
   std::size_t retracked = 0;
-  /// The frame's pose came from a relocalization search (ReconstructorConfig::relocalization.enabled)
-  /// rather than from ICP started at the dead-reckoned pose.
+  /// The frame's pose came from a relocalization search
+  /// (ReconstructorConfig::relocalization.enabled) rather than from ICP started at the
+  /// dead-reckoned pose.
   bool relocalized = false;
   /// This recovering frame disagreed with the ones counted before it and started the recovery's
   /// count again (ReconstructorConfig::recovery.agreement_distance).
@@ -203,23 +204,23 @@ class Reconstructor {
   /// One pose per frame since create() or reset(). When a loss ends in tracking again, the poses of
   /// the frames in between (dead-reckoned or partial, never fused) are re-estimated: the newest by
   /// ICP backward from the recovery while it is reliable
-  /// (ReconstructorConfig::smoothing.retrack_frames), the rest back to the last fully constrained frame
-  /// from the error at the recovery and the errors of the frames so placed (their ICP poses against
-  /// where dead reckoning put them; ReconstructorConfig::smoothing.retracked_frame_sigma): the conditional
-  /// mean of dead reckoning's errors given those, under the navigator's sigmas when the loss began.
-  /// With retracked_frame_sigma 0, the end is the oldest frame placed, its error measured from
-  /// where dead reckoning put it before any move partial ICP made there. The rotation error is the
-  /// gyro bias error (linear in time) plus the gyro's noise (a random walk); it tilts the gravity
-  /// the accelerometer model removes (drift cubic in time), to which a velocity error (linear) and
-  /// an accelerometer bias error (quadratic) add. Along the directions partial ICP fixed in a frame
-  /// (the distance to a bare wall), the drift starts again from zero there; after a long loss, a
-  /// frame's move along directions newly fixed measures the drift before it
-  /// (ReconstructorConfig::smoothing.partial_move_sigma; drift_corrections in src/core/drift_model.hpp).
-  /// Recovering frames that a later one disagreed with (FrameResult::recovery_restarted) belong
-  /// to the stretch: they are re-estimated with it. A recovery that breaks (a recovering frame
-  /// fails, the scan is lost again) ends the stretch before it the same way, at its recovering
-  /// frames: they keep their ICP poses, from which the next lost frames are dead-reckoned. So
-  /// does a scan that ends while recovering, at finish().
+  /// (ReconstructorConfig::smoothing.retrack_frames), the rest back to the last fully constrained
+  /// frame from the error at the recovery and the errors of the frames so placed (their ICP poses
+  /// against where dead reckoning put them; ReconstructorConfig::smoothing.retracked_frame_sigma):
+  /// the conditional mean of dead reckoning's errors given those, under the navigator's sigmas when
+  /// the loss began. With retracked_frame_sigma 0, the end is the oldest frame placed, its error
+  /// measured from where dead reckoning put it before any move partial ICP made there. The rotation
+  /// error is the gyro bias error (linear in time) plus the gyro's noise (a random walk); it tilts
+  /// the gravity the accelerometer model removes (drift cubic in time), to which a velocity error
+  /// (linear) and an accelerometer bias error (quadratic) add. Along the directions partial ICP
+  /// fixed in a frame (the distance to a bare wall), the drift starts again from zero there; after
+  /// a long loss, a frame's move along directions newly fixed measures the drift before it
+  /// (ReconstructorConfig::smoothing.partial_move_sigma; drift_corrections in
+  /// src/core/drift_model.hpp). Recovering frames that a later one disagreed with
+  /// (FrameResult::recovery_restarted) belong to the stretch: they are re-estimated with it. A
+  /// recovery that breaks (a recovering frame fails, the scan is lost again) ends the stretch
+  /// before it the same way, at its recovering frames: they keep their ICP poses, from which the
+  /// next lost frames are dead-reckoned. So does a scan that ends while recovering, at finish().
   /// FrameResult keeps the pose each frame had when it was tracked.
   const Trajectory& trajectory() const;
   const ReconstructorConfig& config() const;

@@ -12,16 +12,16 @@
 namespace imufusion {
 
 enum class ErrorCode {
-  kInvalidArgument,   // a value the caller passed is out of range or malformed
-  kNotFound,          // a file or directory that must exist does not
-  kIoError,           // reading or writing a file failed
-  kParseError,        // a file exists but its content is malformed (message names file and line)
-  kUnsupported,       // a valid input this build cannot handle (e.g. 8-bit depth)
-  kNoDevice,          // no Vulkan instance or no usable device
-  kOutOfDeviceMemory, // VK_ERROR_OUT_OF_DEVICE_MEMORY / OUT_OF_HOST_MEMORY
-  kDeviceLost,        // VK_ERROR_DEVICE_LOST: the device must be recreated
-  kVulkanError,       // any other failing VkResult
-  kInternal,          // a broken invariant inside imufusion
+  kInvalidArgument,    // a value the caller passed is out of range or malformed
+  kNotFound,           // a file or directory that must exist does not
+  kIoError,            // reading or writing a file failed
+  kParseError,         // a file exists but its content is malformed (message names file and line)
+  kUnsupported,        // a valid input this build cannot handle (e.g. 8-bit depth)
+  kNoDevice,           // no Vulkan instance or no usable device
+  kOutOfDeviceMemory,  // VK_ERROR_OUT_OF_DEVICE_MEMORY / OUT_OF_HOST_MEMORY
+  kDeviceLost,         // VK_ERROR_DEVICE_LOST: the device must be recreated
+  kVulkanError,        // any other failing VkResult
+  kInternal,           // a broken invariant inside imufusion
 };
 
 const char* to_string(ErrorCode code);
@@ -56,8 +56,8 @@ class BadResultAccess : public std::logic_error {
 template <typename T>
 class [[nodiscard]] Result {
  public:
-  Result(T value) : data_(std::move(value)) {}          // NOLINT(google-explicit-constructor)
-  Result(Error error) : data_(std::move(error)) {}      // NOLINT(google-explicit-constructor)
+  Result(T value) : data_(std::move(value)) {}      // NOLINT(google-explicit-constructor)
+  Result(Error error) : data_(std::move(error)) {}  // NOLINT(google-explicit-constructor)
 
   bool ok() const { return std::holds_alternative<T>(data_); }
   explicit operator bool() const { return ok(); }
@@ -107,8 +107,8 @@ inline Error make_error(ErrorCode code, std::string message, std::int32_t vk_res
 }  // namespace imufusion
 
 /// Returns the error of `expr` (a Status or Result) from the enclosing function.
-#define IMUFUSION_RETURN_IF_ERROR(expr)          \
-  do {                                           \
-    auto imufusion_status_ = (expr);             \
+#define IMUFUSION_RETURN_IF_ERROR(expr)                            \
+  do {                                                             \
+    auto imufusion_status_ = (expr);                               \
     if (!imufusion_status_.ok()) return imufusion_status_.error(); \
   } while (false)

@@ -29,15 +29,15 @@ std::string frames_csv_row(const FrameResult& frame, std::uint32_t allocated_blo
 struct ScanStatistics {
   std::size_t frames = 0;
   std::size_t fused = 0;
-  std::size_t lost = 0;        // frames with status lost
-  std::size_t recovering = 0;  // frames with status recovering
-  std::size_t recoveries = 0;  // losses that ended in tracking again
+  std::size_t lost = 0;               // frames with status lost
+  std::size_t recovering = 0;         // frames with status recovering
+  std::size_t recoveries = 0;         // losses that ended in tracking again
   std::size_t broken_recoveries = 0;  // recovering frames followed by a lost one
   std::size_t dead_reckoned = 0;
   std::size_t partial = 0;  // frames with pose source icp_partial (degenerate depth, IMU-aided)
-  std::size_t relocalizations = 0;  // frames placed by the relocalization search
+  std::size_t relocalizations = 0;    // frames placed by the relocalization search
   std::size_t recovery_restarts = 0;  // recovering frames that started the count again
-  std::size_t retracked = 0;  // lost frames placed by ICP backward from their recovery
+  std::size_t retracked = 0;          // lost frames placed by ICP backward from their recovery
   /// Fused frames with blocks the full block pool had no room for (partly fused), and the
   /// index of the first (when pool_full_frames > 0).
   std::size_t pool_full_frames = 0;

@@ -22,7 +22,8 @@ namespace imufusion::synth {
 
 /// `room`: a furnished room. `wall`: the room with a ~2 s stretch facing a bare wall at ~1 m
 /// while moving; the walk around the room pauses for the episode, so the camera turns back to
-/// the part of the room it left (the scan can only recover onto what it has scanned). `fast`: the room with bursts of ~90 deg/s rotation and faster walking.
+/// the part of the room it left (the scan can only recover onto what it has scanned). `fast`: the
+/// room with bursts of ~90 deg/s rotation and faster walking.
 enum class SceneKind { kRoom, kWall, kFast };
 
 const char* to_string(SceneKind kind);

@@ -107,7 +107,7 @@ struct TrackingDecision {
   TrackingStatus status = TrackingStatus::kTracking;
   PoseSource source = PoseSource::kInitial;
   bool fuse = false;
-  int good_frames = 0;  // consecutive reliable frames counted towards recovery
+  int good_frames = 0;     // consecutive reliable frames counted towards recovery
   bool recovered = false;  // this frame ended a loss (recovering -> tracking)
 };
 

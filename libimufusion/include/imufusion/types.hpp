@@ -2,11 +2,10 @@
 // Plain data shared by every module. Units: metres, seconds, rad/s, m/s^2, pixels.
 // Frames: a transform `T_a_b` maps b-coordinates into a (T_world_camera: camera -> world).
 
-#include <cstdint>
-#include <vector>
-
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cstdint>
+#include <vector>
 
 namespace imufusion {
 
@@ -24,7 +23,7 @@ struct Intrinsics {
 /// A 16-bit depth image: value / depth_scale = metres along the optical axis, 0 = no measurement.
 struct DepthImage {
   int width = 0, height = 0;
-  double depth_scale = 5000.0;  // raw units per metre
+  double depth_scale = 5000.0;      // raw units per metre
   std::vector<std::uint16_t> data;  // row-major, width * height
 
   std::uint16_t at(int u, int v) const { return data[static_cast<std::size_t>(v) * width + u]; }

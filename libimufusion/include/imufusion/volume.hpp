@@ -8,24 +8,23 @@
 // covers [8 b, 8 b + 8) * voxel_size on each axis, and marching cubes between the last voxel of a
 // block and the first of its neighbour uses the neighbour block.
 
+#include <Eigen/Core>
 #include <array>
 #include <cstdint>
 #include <vector>
 
-#include <Eigen/Core>
-
 namespace imufusion {
 
-constexpr int kBlockSide = 8;                                    // voxels per block edge
+constexpr int kBlockSide = 8;                                       // voxels per block edge
 constexpr int kBlockVoxels = kBlockSide * kBlockSide * kBlockSide;  // 512
 
 /// Index of voxel (i, j, k) inside its block.
 constexpr int voxel_index(int i, int j, int k) { return i + kBlockSide * (j + kBlockSide * k); }
 
 struct VolumeConfig {
-  float voxel_size = 0.01f;        // metres
-  float truncation_voxels = 4.0f;  // truncation band, in voxels (default ~4)
-  int max_weight = 128;            // running-average weight cap (observations)
+  float voxel_size = 0.01f;                 // metres
+  float truncation_voxels = 4.0f;           // truncation band, in voxels (default ~4)
+  int max_weight = 128;                     // running-average weight cap (observations)
   std::uint32_t block_capacity = 1u << 16;  // blocks in the pool: 4 KiB each (8 bytes per voxel)
   std::uint32_t hash_slots = 1u << 18;      // hash-table slots (a power of two, > capacity)
 

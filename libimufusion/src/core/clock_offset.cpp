@@ -23,8 +23,7 @@ double HostClockMapper::observe(double host_receive_time, double sensor_time) {
 
 std::optional<double> HostClockMapper::offset() const { return offset_; }
 
-ClockOffsetEstimator::ClockOffsetEstimator(const ClockOffsetOptions& options)
-    : options_(options) {}
+ClockOffsetEstimator::ClockOffsetEstimator(const ClockOffsetOptions& options) : options_(options) {}
 
 void ClockOffsetEstimator::add_imu(const ImuSample& sample, double host_receive_time) {
   if (!gyro_.empty() && !(sample.timestamp > gyro_.back().t)) return;
@@ -42,7 +41,8 @@ void ClockOffsetEstimator::add_imu(const ImuSample& sample) {
   const Gyro& last = gyro_.back();
   if (!(sample.timestamp > last.t)) return;
   const double h = sample.timestamp - last.t;
-  gyro_.push_back({sample.timestamp, sample.gyro, last.integral + 0.5 * h * (last.rate + sample.gyro)});
+  gyro_.push_back(
+      {sample.timestamp, sample.gyro, last.integral + 0.5 * h * (last.rate + sample.gyro)});
   forget_old();
 }
 

@@ -1,10 +1,9 @@
 #include "core/drift_model.hpp"
 
-#include <algorithm>
-#include <cmath>
-
 #include <Eigen/Eigenvalues>
 #include <Eigen/QR>
+#include <algorithm>
+#include <cmath>
 
 #include "core/so3.hpp"
 
@@ -35,11 +34,16 @@ struct DriftFit {
 // Their prior covariance Sigma is diagonal but for the (gravity, bias) block.
 class DriftModel {
  public:
-  static constexpr Eigen::Index kGyroBias = 0, kVelocity = 3, kGravity = 6, kAccelBias = 9, kNoise = 12;
+  static constexpr Eigen::Index kGyroBias = 0, kVelocity = 3, kGravity = 6, kAccelBias = 9,
+                                kNoise = 12;
 
   DriftModel(const std::vector<StretchFrame>& frames, double T, const DriftPrior& prior)
-      : frames_(frames), T_(T), prior_(prior), intervals_(frames.size() + 1),
-        n_(kNoise + static_cast<Eigen::Index>(3 * intervals_)), g_cross_(skew(prior.gravity_world)) {
+      : frames_(frames),
+        T_(T),
+        prior_(prior),
+        intervals_(frames.size() + 1),
+        n_(kNoise + static_cast<Eigen::Index>(3 * intervals_)),
+        g_cross_(skew(prior.gravity_world)) {
     set_prior_variance();
   }
 
@@ -54,7 +58,8 @@ class DriftModel {
   // observed (always taken), then for each measured move along newly fixed directions (in time
   // order) the error just before it along them. Which moves are taken changes only which rows
   // a fit uses.
-  void collect(std::vector<Measurement>& moves, std::vector<Measurement>& observations, Eigen::MatrixXd& end_A) const;
+  void collect(std::vector<Measurement>& moves, std::vector<Measurement>& observations,
+               Eigen::MatrixXd& end_A) const;
 
   // The conditional mean of z given the end error `end_y` (rotation, translation), the
   // observations and the moves `taken`, with the chi-square of those measurements and its
@@ -69,11 +74,16 @@ class DriftModel {
           const std::vector<char>& taken) const;
 
   // The frames' errors (and the velocity error at T) at the values z.
-  Eigen::Vector3d corrections_at(const Eigen::VectorXd& z, std::vector<StretchCorrection>& out) const;
+  Eigen::Vector3d corrections_at(const Eigen::VectorXd& z,
+                                 std::vector<StretchCorrection>& out) const;
 
  private:
-  Eigen::Index noise_index(std::size_t k) const { return kNoise + static_cast<Eigen::Index>(3 * k); }
-  double interval_end(std::size_t k) const { return k < frames_.size() ? std::clamp(frames_[k].s, 0.0, T_) : T_; }
+  Eigen::Index noise_index(std::size_t k) const {
+    return kNoise + static_cast<Eigen::Index>(3 * k);
+  }
+  double interval_end(std::size_t k) const {
+    return k < frames_.size() ? std::clamp(frames_[k].s, 0.0, T_) : T_;
+  }
   Eigen::Matrix3d orientation(std::size_t k) const {
     if (frames_.empty()) return Eigen::Matrix3d::Identity();
     return frames_[std::min(k, frames_.size() - 1)].R_world_camera;
@@ -82,7 +92,9 @@ class DriftModel {
   // by the move there, and its fixed directions are not taken as exact. The move is a
   // measurement of the error just before it, taken only while it agrees with the rest.
   bool measured_move(std::size_t k) const { return frames_[k].moved_sigma > 0; }
-  Eigen::Matrix3d reset(std::size_t k) const { return measured_move(k) ? Eigen::Matrix3d::Zero() : frames_[k].fixed; }
+  Eigen::Matrix3d reset(std::size_t k) const {
+    return measured_move(k) ? Eigen::Matrix3d::Zero() : frames_[k].fixed;
+  }
   Eigen::MatrixXd unknown(Eigen::Index first) const {
     Eigen::MatrixXd m = Eigen::MatrixXd::Zero(3, n_ + 1);
     m.middleCols<3>(first).setIdentity();
@@ -97,8 +109,8 @@ class DriftModel {
   // maps) or on values (3 x 1): the rotation error moves by the bias error and the noise
   // increment, the acceleration is constant at its midpoint value.
   template <typename M, typename V, typename NoiseOf, typename AtMove, typename AtFrame>
-  void run(M& rotation, M& position, M& velocity, const V& bias, const V& accel_bias, const V& gravity,
-           const NoiseOf& noise_of, AtMove&& at_move, AtFrame&& at_frame) const {
+  void run(M& rotation, M& position, M& velocity, const V& bias, const V& accel_bias,
+           const V& gravity, const NoiseOf& noise_of, AtMove&& at_move, AtFrame&& at_frame) const {
     double last = 0;
     for (std::size_t k = 0; k < intervals_; ++k) {
       const double end = std::max(last, interval_end(k));
@@ -106,7 +118,8 @@ class DriftModel {
       const Eigen::Matrix3d R = orientation(k);
       const auto step = (R * bias * h + noise_of(k)).eval();
       // -delta x g = g x delta
-      const auto acceleration = (g_cross_ * (rotation + 0.5 * step) + R * accel_bias + gravity).eval();
+      const auto acceleration =
+          (g_cross_ * (rotation + 0.5 * step) + R * accel_bias + gravity).eval();
       position += velocity * h + 0.5 * h * h * acceleration;
       velocity += acceleration * h;
       rotation += step;
@@ -134,12 +147,15 @@ void DriftModel::set_prior_variance() {
   // tracked frame) leaves that error free. Its variance is taken as 1 ((rad/s)^2, (m/s)^2), far
   // above any estimate's, where the conditional mean is that of a free error: an infinite one
   // would turn Sigma H^T into inf * 0.
-  const auto free_if_unknown = [](double sigma) { return std::isfinite(sigma) ? sigma * sigma : 1.0; };
+  const auto free_if_unknown = [](double sigma) {
+    return std::isfinite(sigma) ? sigma * sigma : 1.0;
+  };
   double gyro_bias2 = free_if_unknown(prior_.gyro_bias_sigma);
   const double noise2 = prior_.gyro_noise_density * prior_.gyro_noise_density;
   if (!(gyro_bias2 + noise2 > 0)) gyro_bias2 = 1;  // linear
   double velocity2 = free_if_unknown(prior_.velocity_sigma);
-  accelerometer_ = prior_.gravity_bias_covariance.allFinite() && prior_.gravity_bias_covariance.trace() > 0;
+  accelerometer_ =
+      prior_.gravity_bias_covariance.allFinite() && prior_.gravity_bias_covariance.trace() > 0;
   if (!(velocity2 > 0) && !accelerometer_) velocity2 = 1;  // linear
   variance_ = Eigen::VectorXd::Zero(n_);
   variance_.segment<3>(kGyroBias).setConstant(gyro_bias2);
@@ -158,37 +174,44 @@ Eigen::Matrix3d DriftModel::newly_fixed(std::size_t k) const {
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(P - P * before * P);
   Eigen::Matrix3d N = Eigen::Matrix3d::Zero();
   for (int i = 0; i < 3; ++i)
-    if (eig.eigenvalues()(i) > 0.5) N += eig.eigenvectors().col(i) * eig.eigenvectors().col(i).transpose();
+    if (eig.eigenvalues()(i) > 0.5)
+      N += eig.eigenvectors().col(i) * eig.eigenvectors().col(i).transpose();
   return N;
 }
 
 void DriftModel::collect(std::vector<Measurement>& moves, std::vector<Measurement>& observations,
                          Eigen::MatrixXd& end_A) const {
   const Eigen::Index constant = n_;
-  Eigen::MatrixXd rotation = Eigen::MatrixXd::Zero(3, n_ + 1), position = Eigen::MatrixXd::Zero(3, n_ + 1),
-                  velocity = unknown(kVelocity);
-  run(rotation, position, velocity, unknown(kGyroBias), unknown(kAccelBias), unknown(kGravity),
+  Eigen::MatrixXd rotation = Eigen::MatrixXd::Zero(3, n_ + 1),
+                  position = Eigen::MatrixXd::Zero(3, n_ + 1), velocity = unknown(kVelocity);
+  run(
+      rotation, position, velocity, unknown(kGyroBias), unknown(kAccelBias), unknown(kGravity),
       [&](std::size_t k) { return unknown(noise_index(k)); },
       [&](std::size_t k, Eigen::MatrixXd& p) {
         const Eigen::Matrix3d N = newly_fixed(k);
         if (N.trace() >= 0.5)
-          moves.push_back({N * p, N * frames_[k].moved, N * (frames_[k].moved_sigma * frames_[k].moved_sigma)});
+          moves.push_back(
+              {N * p, N * frames_[k].moved, N * (frames_[k].moved_sigma * frames_[k].moved_sigma)});
         p.col(constant) -= frames_[k].moved;
       },
       [&](std::size_t k) {
         const double sigma = frames_[k].observed_sigma;
         if (sigma > 0)
-          observations.push_back({position, frames_[k].observed, Eigen::Matrix3d::Identity() * (sigma * sigma)});
+          observations.push_back(
+              {position, frames_[k].observed, Eigen::Matrix3d::Identity() * (sigma * sigma)});
       });
   end_A.resize(6, n_ + 1);
   end_A << rotation, position;
 }
 
-DriftModel::Fit DriftModel::fit(const Eigen::MatrixXd& end_A, const Eigen::Matrix<double, 6, 1>& end_y,
-                                const std::vector<Measurement>& observations, const std::vector<Measurement>& moves,
+DriftModel::Fit DriftModel::fit(const Eigen::MatrixXd& end_A,
+                                const Eigen::Matrix<double, 6, 1>& end_y,
+                                const std::vector<Measurement>& observations,
+                                const std::vector<Measurement>& moves,
                                 const std::vector<char>& taken) const {
   const Eigen::Index m =
-      6 + 3 * static_cast<Eigen::Index>(observations.size() + std::count(taken.begin(), taken.end(), 1));
+      6 + 3 * static_cast<Eigen::Index>(observations.size() +
+                                        std::count(taken.begin(), taken.end(), 1));
   Eigen::MatrixXd A(m, n_ + 1);
   Eigen::VectorXd y(m);
   Eigen::MatrixXd noise = Eigen::MatrixXd::Zero(m, m);
@@ -208,26 +231,32 @@ DriftModel::Fit DriftModel::fit(const Eigen::MatrixXd& end_A, const Eigen::Matri
   const Eigen::MatrixXd H = A.leftCols(n_);
   Eigen::MatrixXd cross = variance_.asDiagonal() * H.transpose();  // Sigma H^T
   if (accelerometer_)
-    cross.middleRows<6>(kGravity) = prior_.gravity_bias_covariance * H.transpose().middleRows<6>(kGravity);
+    cross.middleRows<6>(kGravity) =
+        prior_.gravity_bias_covariance * H.transpose().middleRows<6>(kGravity);
   const Eigen::MatrixXd S = H * cross + noise;
   const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(S);
   const Eigen::VectorXd w = cod.solve(y);
   return Fit{cross * w, y.dot(w), cod.rank()};
 }
 
-Eigen::Vector3d DriftModel::corrections_at(const Eigen::VectorXd& z, std::vector<StretchCorrection>& out) const {
+Eigen::Vector3d DriftModel::corrections_at(const Eigen::VectorXd& z,
+                                           std::vector<StretchCorrection>& out) const {
   Eigen::Vector3d r = Eigen::Vector3d::Zero(), p = Eigen::Vector3d::Zero();
   Eigen::Vector3d v = z.segment<3>(kVelocity);
-  run(r, p, v, Eigen::Vector3d(z.segment<3>(kGyroBias)), Eigen::Vector3d(z.segment<3>(kAccelBias)),
+  run(
+      r, p, v, Eigen::Vector3d(z.segment<3>(kGyroBias)), Eigen::Vector3d(z.segment<3>(kAccelBias)),
       Eigen::Vector3d(z.segment<3>(kGravity)),
       [&](std::size_t k) -> Eigen::Vector3d { return z.segment<3>(noise_index(k)); },
       [&](std::size_t k, Eigen::Vector3d& position) { position -= frames_[k].moved; },
-      [&](std::size_t k) { out[k] = StretchCorrection{p, r}; });
+      [&](std::size_t k) {
+        out[k] = StretchCorrection{p, r};
+      });
   return v;
 }
 
-DriftFit fit_drift(const std::vector<StretchFrame>& frames, double T, const Eigen::Vector3d& end_translation,
-                   const Eigen::Vector3d& end_rotation, const DriftPrior& prior) {
+DriftFit fit_drift(const std::vector<StretchFrame>& frames, double T,
+                   const Eigen::Vector3d& end_translation, const Eigen::Vector3d& end_rotation,
+                   const DriftPrior& prior) {
   DriftFit result;
   result.corrections.assign(frames.size(), StretchCorrection{end_translation, end_rotation});
   if (!(T > 0)) return result;
@@ -262,13 +291,15 @@ DriftFit fit_drift(const std::vector<StretchFrame>& frames, double T, const Eige
 
 std::vector<StretchCorrection> drift_corrections(const std::vector<StretchFrame>& frames, double T,
                                                  const Eigen::Vector3d& end_translation,
-                                                 const Eigen::Vector3d& end_rotation, const DriftPrior& prior) {
+                                                 const Eigen::Vector3d& end_rotation,
+                                                 const DriftPrior& prior) {
   return fit_drift(frames, T, end_translation, end_rotation, prior).corrections;
 }
 
 std::optional<Eigen::Vector3d> drift_end_velocity(const std::vector<StretchFrame>& frames, double T,
                                                   const Eigen::Vector3d& end_translation,
-                                                  const Eigen::Vector3d& end_rotation, const DriftPrior& prior) {
+                                                  const Eigen::Vector3d& end_rotation,
+                                                  const DriftPrior& prior) {
   if (!(T > 0)) return std::nullopt;
   const DriftFit fit = fit_drift(frames, T, end_translation, end_rotation, prior);
   if (fit.chi2 > chi_square_999(fit.dof)) return std::nullopt;

@@ -3,10 +3,9 @@
 // errors and the start velocity's error grow into dead reckoning's pose errors, and the
 // corrections of the stretch's frames given the error its end shows. Pure C++, no GPU.
 
+#include <Eigen/Core>
 #include <optional>
 #include <vector>
-
-#include <Eigen/Core>
 
 namespace imufusion {
 
@@ -14,7 +13,7 @@ namespace imufusion {
 /// axis). Zero sigmas are sources left out.
 struct DriftPrior {
   Eigen::Vector3d gravity_world = Eigen::Vector3d::Zero();  // m/s^2; zero: no tilt term
-  double velocity_sigma = 0;      // m/s: the velocity at the start; infinite: not yet measured
+  double velocity_sigma = 0;  // m/s: the velocity at the start; infinite: not yet measured
   // The joint covariance of the gravity estimate (world) and the accelerometer bias (camera
   // frame), m^2/s^4. Estimated together, their sum is known far better than either while the
   // camera turned little; a turn during the stretch shows their difference.
@@ -78,7 +77,8 @@ struct StretchCorrection {
 /// the rest.
 std::vector<StretchCorrection> drift_corrections(const std::vector<StretchFrame>& frames, double T,
                                                  const Eigen::Vector3d& end_translation,
-                                                 const Eigen::Vector3d& end_rotation, const DriftPrior& prior);
+                                                 const Eigen::Vector3d& end_rotation,
+                                                 const DriftPrior& prior);
 
 /// The velocity error (truth - estimate, world, m/s) dead reckoning carried to the stretch's end
 /// T, under the model and measurements of drift_corrections: the rate at which the corrections
@@ -88,6 +88,7 @@ std::vector<StretchCorrection> drift_corrections(const std::vector<StretchFrame>
 /// wall, not a drift whose rate the end could tell).
 std::optional<Eigen::Vector3d> drift_end_velocity(const std::vector<StretchFrame>& frames, double T,
                                                   const Eigen::Vector3d& end_translation,
-                                                  const Eigen::Vector3d& end_rotation, const DriftPrior& prior);
+                                                  const Eigen::Vector3d& end_rotation,
+                                                  const DriftPrior& prior);
 
 }  // namespace imufusion

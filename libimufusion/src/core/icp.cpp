@@ -1,3 +1,7 @@
+#include "imufusion/icp.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -6,11 +10,7 @@
 #include <utility>
 #include <vector>
 
-#include <Eigen/Eigenvalues>
-#include <Eigen/SVD>
-
 #include "core/so3.hpp"
-#include "imufusion/icp.hpp"
 
 namespace imufusion {
 namespace {
@@ -27,13 +27,15 @@ std::string format(double value) {
 // A translation direction is free when the left-out directions move along it: the
 // eigenvectors of sum t t^T over their translation parts t (unit 6-vectors, so a pure
 // translation gives 1, a pure rotation 0) with eigenvalue below one half are fixed.
-Eigen::Matrix3d fixed_translation_without(const std::vector<Eigen::Matrix<double, 6, 1>>& left_out) {
+Eigen::Matrix3d fixed_translation_without(
+    const std::vector<Eigen::Matrix<double, 6, 1>>& left_out) {
   Eigen::Matrix3d free = Eigen::Matrix3d::Zero();
   for (const auto& u : left_out) free += u.tail<3>() * u.tail<3>().transpose();
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(free);
   Eigen::Matrix3d fixed = Eigen::Matrix3d::Zero();
   for (int i = 0; i < 3; ++i)
-    if (eig.eigenvalues()(i) < 0.5) fixed += eig.eigenvectors().col(i) * eig.eigenvectors().col(i).transpose();
+    if (eig.eigenvalues()(i) < 0.5)
+      fixed += eig.eigenvectors().col(i) * eig.eigenvectors().col(i).transpose();
   return fixed;
 }
 
@@ -67,8 +69,8 @@ std::optional<Vector6d> seed_information(const IcpConfig& config) {
 
 // The depth's information per unit of AtA, 1 / (c s^2) (IcpConfig::seed_prior); 0 when the
 // frame shows no noise to weigh it by.
-double depth_information_scale(const NormalEquations& eq, const IcpStep& depth_only, const IcpConfig& config,
-                               int level) {
+double depth_information_scale(const NormalEquations& eq, const IcpStep& depth_only,
+                               const IcpConfig& config, int level) {
   const double a = config.depth_noise.a;
   const double s2 = std::max(eq.weight_sum > 0 ? depth_only.residual / eq.weight_sum : 0.0, a * a);
   const double c = std::max(1.0, config.correlated_pixels / std::pow(4.0, level));
@@ -90,9 +92,11 @@ void add_seed_prior(IcpStep& step, const NormalEquations& eq, double scale, cons
 
 // chi^2 of the move `moved` from the initial pose under the seed's covariance plus ICP's,
 // (scale AtA)^-1; infinity when AtA is singular.
-double seed_chi2(const NormalEquations& eq, double scale, const Vector6d& info, const Vector6d& moved) {
+double seed_chi2(const NormalEquations& eq, double scale, const Vector6d& info,
+                 const Vector6d& moved) {
   const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> depth((eq.AtA * scale).eval());
-  if (depth.info() != Eigen::Success || !(depth.vectorD().minCoeff() > 0)) return std::numeric_limits<double>::infinity();
+  if (depth.info() != Eigen::Success || !(depth.vectorD().minCoeff() > 0))
+    return std::numeric_limits<double>::infinity();
   Eigen::Matrix<double, 6, 6> S = depth.solve(Eigen::Matrix<double, 6, 6>::Identity());
   S.diagonal() += info.cwiseInverse();
   const double chi2 = moved.dot(S.ldlt().solve(moved));
@@ -104,7 +108,8 @@ double seed_chi2(const NormalEquations& eq, double scale, const Vector6d& info, 
 // twice its) becomes reliable when its chi^2 from the initial pose is within the limit.
 void accept_if_agreeing(const IcpConfig& config, IcpResult& result) {
   IcpQuality& q = result.quality;
-  if (result.reliable() || !q.converged || !(config.seed_agreement_chi2 > 0) || !(q.seed_chi2 <= config.seed_agreement_chi2))
+  if (result.reliable() || !q.converged || !(config.seed_agreement_chi2 > 0) ||
+      !(q.seed_chi2 <= config.seed_agreement_chi2))
     return;
   IcpReliabilityThresholds pairing = config.reliability;
   pairing.min_inlier_fraction *= 0.5;
@@ -118,15 +123,16 @@ void accept_if_agreeing(const IcpConfig& config, IcpResult& result) {
 
 // The end of a partial result's reason.
 std::string partial_reason(int constrained) {
-  return "; " + std::to_string(constrained) + " of 6 directions from ICP, the rest from the initial pose";
+  return "; " + std::to_string(constrained) +
+         " of 6 directions from ICP, the rest from the initial pose";
 }
 
 // The seed gate (IcpConfig::seed_sigma_rotation): along the weakly constrained singular
 // directions of the last step's AtA, ICP's motion from the initial pose must stay within the
 // combined uncertainty of the initial pose and of ICP itself (r / sum(w) / sigma_i); the
 // directions beyond it are moved back to the initial pose and the result becomes partial.
-void gate_against_seed(const IcpStep& last, const IcpConfig& config, const Eigen::Isometry3d& T_init,
-                       IcpResult& result) {
+void gate_against_seed(const IcpStep& last, const IcpConfig& config,
+                       const Eigen::Isometry3d& T_init, IcpResult& result) {
   const Eigen::Matrix<double, 6, 1>& s = last.singular_values;
   const Eigen::Matrix<double, 6, 6>& U = last.directions;
   const Vector6d xi = update_towards(result.T_ref_cur, T_init);
@@ -164,9 +170,12 @@ void gate_against_seed(const IcpStep& last, const IcpConfig& config, const Eigen
   result.T_ref_cur = icp_increment(kept) * T_init;
   result.quality.constrained_directions = constrained;
   const bool was_reliable = result.reliable();
-  result.verdict = constrained >= config.min_constrained_directions ? IcpVerdict::kPartial : IcpVerdict::kUnreliable;
-  result.fixed_translation = result.partial() ? fixed_translation_without(left_out) : Eigen::Matrix3d::Zero();
-  std::string why = "moved " + format(worst) + " sigma from the initial pose along a direction with kappa " +
+  result.verdict = constrained >= config.min_constrained_directions ? IcpVerdict::kPartial
+                                                                    : IcpVerdict::kUnreliable;
+  result.fixed_translation =
+      result.partial() ? fixed_translation_without(left_out) : Eigen::Matrix3d::Zero();
+  std::string why = "moved " + format(worst) +
+                    " sigma from the initial pose along a direction with kappa " +
                     format(worst_kappa);
   if (!was_reliable) why = result.reason + "; " + why;
   result.reason = why + (result.partial() ? partial_reason(constrained) : std::string());
@@ -194,18 +203,23 @@ Status IcpConfig::validate(int levels) const {
   if (!(depth_noise.a >= 0 && depth_noise.b >= 0 &&
         std::isfinite(depth_noise.a + depth_noise.b + depth_noise.z0)))
     return bad("depth noise coefficients must be finite and non-negative");
-  for (const auto& [name, value] : {std::pair<const char*, double>{"min_inlier_fraction", reliability.min_inlier_fraction},
-                                     {"min_pixel_fraction", reliability.min_pixel_fraction}}) {
-    if (!(value >= 0 && value <= 1)) return bad(std::string(name) + " must be in [0, 1], got " + format(value));
+  for (const auto& [name, value] :
+       {std::pair<const char*, double>{"min_inlier_fraction", reliability.min_inlier_fraction},
+        {"min_pixel_fraction", reliability.min_pixel_fraction}}) {
+    if (!(value >= 0 && value <= 1))
+      return bad(std::string(name) + " must be in [0, 1], got " + format(value));
   }
   if (!(normal_gate.noise_k >= 0 && std::isfinite(normal_gate.noise_k)))
-    return bad("normal_gate.noise_k must be finite and non-negative, got " + format(normal_gate.noise_k));
+    return bad("normal_gate.noise_k must be finite and non-negative, got " +
+               format(normal_gate.noise_k));
   if (!(normal_gate.max_angle_deg > 0 && normal_gate.max_angle_deg < 90))
-    return bad("normal_gate.max_angle_deg must be in (0, 90), got " + format(normal_gate.max_angle_deg));
+    return bad("normal_gate.max_angle_deg must be in (0, 90), got " +
+               format(normal_gate.max_angle_deg));
   if (min_constrained_directions < 1 || min_constrained_directions > 6)
-    return bad("min_constrained_directions must be 1..6, got " + std::to_string(min_constrained_directions));
-  if (!(seed_sigma_rotation >= 0 && std::isfinite(seed_sigma_rotation) && seed_sigma_translation >= 0 &&
-        std::isfinite(seed_sigma_translation)))
+    return bad("min_constrained_directions must be 1..6, got " +
+               std::to_string(min_constrained_directions));
+  if (!(seed_sigma_rotation >= 0 && std::isfinite(seed_sigma_rotation) &&
+        seed_sigma_translation >= 0 && std::isfinite(seed_sigma_translation)))
     return bad("seed sigmas must be finite and non-negative");
   if (!(seed_gate_condition >= 1 && std::isfinite(seed_gate_condition)))
     return bad("seed_gate_condition must be at least 1, got " + format(seed_gate_condition));
@@ -214,9 +228,11 @@ Status IcpConfig::validate(int levels) const {
   if (!(correlated_pixels >= 1 && std::isfinite(correlated_pixels)))
     return bad("correlated_pixels must be at least 1, got " + format(correlated_pixels));
   if (!(seed_agreement_chi2 >= 0 && std::isfinite(seed_agreement_chi2)))
-    return bad("seed_agreement_chi2 must be finite and non-negative, got " + format(seed_agreement_chi2));
+    return bad("seed_agreement_chi2 must be finite and non-negative, got " +
+               format(seed_agreement_chi2));
   if (!(seed_gate_hold_sigmas > 0 && seed_gate_hold_sigmas <= seed_gate_sigmas))
-    return bad("seed_gate_hold_sigmas must be in (0, seed_gate_sigmas], got " + format(seed_gate_hold_sigmas));
+    return bad("seed_gate_hold_sigmas must be in (0, seed_gate_sigmas], got " +
+               format(seed_gate_hold_sigmas));
   return {};
 }
 
@@ -226,8 +242,8 @@ IcpStep solve_icp_step(const NormalEquations& eq, double max_condition) {
     step.condition = std::numeric_limits<double>::infinity();
     return step;
   }
-  const Eigen::JacobiSVD<Eigen::Matrix<double, 6, 6>> svd(eq.AtA,
-                                                         Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Eigen::JacobiSVD<Eigen::Matrix<double, 6, 6>> svd(
+      eq.AtA, Eigen::ComputeFullU | Eigen::ComputeFullV);
   step.directions = svd.matrixU();
   // Element by element: GCC 12 reports the vectorized whole-vector copy as maybe-uninitialized.
   for (int i = 0; i < 6; ++i) step.singular_values(i) = svd.singularValues()(i);
@@ -293,11 +309,11 @@ namespace {
 
 // What the verdict on an alignment needs from its last steps.
 struct LastStep {
-  IcpStep step;                    // the last step (kept for the seed gate)
-  NormalEquations eq;              // level 0's last system, for the agreement with the seed
-  double scale = 0;                // its information scale (depth_information_scale)
+  IcpStep step;        // the last step (kept for the seed gate)
+  NormalEquations eq;  // level 0's last system, for the agreement with the seed
+  double scale = 0;    // its information scale (depth_information_scale)
   Eigen::Matrix3d fixed = Eigen::Matrix3d::Zero();  // the last step's fixed translation directions
-  int finest_run = 0;              // the finest level that ran a step
+  int finest_run = 0;                               // the finest level that ran a step
 };
 
 // The quality figures of one Gauss-Newton step.
@@ -316,15 +332,20 @@ void record_step(IcpQuality& q, const NormalEquations& eq, const IcpStep& step) 
 // The verdict on a finished alignment: the reliability test at level 0, the agreement with the
 // seed, a partial solve where only the condition fails, then the seed gate.
 void judge_result(IcpResult& result, const IcpConfig& config, const LastStep& last,
-                  const std::optional<Vector6d>& prior, bool seed_gate, const Eigen::Isometry3d& T_ref_cur_init) {
-  result.verdict = judge_icp(result.quality, config.reliability, &result.reason) ? IcpVerdict::kReliable : IcpVerdict::kUnreliable;
+                  const std::optional<Vector6d>& prior, bool seed_gate,
+                  const Eigen::Isometry3d& T_ref_cur_init) {
+  result.verdict = judge_icp(result.quality, config.reliability, &result.reason)
+                       ? IcpVerdict::kReliable
+                       : IcpVerdict::kUnreliable;
   if (result.reliable() && last.finest_run != 0) {
     result.verdict = IcpVerdict::kUnreliable;
     result.reason = "level 0 was not reached";
   }
   if (prior && last.finest_run == 0 && last.scale > 0) {
-    result.quality.seed_chi2 = seed_chi2(last.eq, last.scale, *prior, update_towards(result.T_ref_cur, T_ref_cur_init));
-    if (result.quality.condition <= config.reliability.max_condition) accept_if_agreeing(config, result);
+    result.quality.seed_chi2 =
+        seed_chi2(last.eq, last.scale, *prior, update_towards(result.T_ref_cur, T_ref_cur_init));
+    if (result.quality.condition <= config.reliability.max_condition)
+      accept_if_agreeing(config, result);
   }
   if (!result.reliable() && config.keep_seed_in_degenerate_directions && last.finest_run == 0 &&
       result.quality.constrained_directions >= config.min_constrained_directions) {
@@ -337,7 +358,8 @@ void judge_result(IcpResult& result, const IcpConfig& config, const LastStep& la
       result.reason += partial_reason(result.quality.constrained_directions);
     }
   }
-  if ((result.reliable() || result.partial()) && seed_gate) gate_against_seed(last.step, config, T_ref_cur_init, result);
+  if ((result.reliable() || result.partial()) && seed_gate)
+    gate_against_seed(last.step, config, T_ref_cur_init, result);
 }
 
 }  // namespace
@@ -364,10 +386,12 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
   for (int level = levels - 1; level >= 0; --level) {
     // Keep one iteration for every finer level, so a small budget is spent at full resolution.
     const int budget = config.max_total_iterations - total - level;
-    const int iterations = std::min(config.iterations_per_level[static_cast<std::size_t>(level)], budget);
+    const int iterations =
+        std::min(config.iterations_per_level[static_cast<std::size_t>(level)], budget);
     if (iterations <= 0) continue;
     const auto l = static_cast<std::size_t>(level);
-    const float min_cos = static_cast<float>(std::cos(config.max_normal_angle_deg[l] * M_PI / 180.0));
+    const float min_cos =
+        static_cast<float>(std::cos(config.max_normal_angle_deg[l] * M_PI / 180.0));
     bool converged = false;
     for (int it = 0; it < iterations; ++it) {
       auto eq = source.evaluate(level, T, config.max_distance[l], min_cos);
@@ -376,7 +400,8 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
           *eq, config.keep_seed_in_degenerate_directions ? config.reliability.max_condition : 0.0);
       if (prior && step.solvable) {
         const double scale = depth_information_scale(*eq, step, config, level);
-        if (scale > 0 && config.seed_prior) add_seed_prior(step, *eq, scale, *prior, update_towards(T_ref_cur_init, T));
+        if (scale > 0 && config.seed_prior)
+          add_seed_prior(step, *eq, scale, *prior, update_towards(T_ref_cur_init, T));
         if (level == 0) {
           last.eq = *eq;
           last.scale = scale;
@@ -410,7 +435,8 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
   result.T_ref_cur = T;
   if (!any_step) {
     result.quality.converged = false;
-    result.reason = result.quality.inliers == 0 ? "no correspondences" : "the ICP system is degenerate";
+    result.reason =
+        result.quality.inliers == 0 ? "no correspondences" : "the ICP system is degenerate";
     return result;
   }
   judge_result(result, config, last, prior, seed_gate, T_ref_cur_init);

@@ -23,8 +23,7 @@ GyroBiasEstimator::GyroBiasEstimator(const Eigen::Vector3d& initial_bias, double
       icp_sigma_(icp_sigma) {}
 
 bool GyroBiasEstimator::update(double t, const ImuIntegration& integration,
-                               const Eigen::Matrix3d& R_imu_icp, double dt,
-                               double mounting_sigma) {
+                               const Eigen::Matrix3d& R_imu_icp, double dt, double mounting_sigma) {
   if (has_time_ && t > last_time_) {
     P_ += Eigen::Matrix3d::Identity() * random_walk_ * random_walk_ * (t - last_time_);
   }

@@ -1,10 +1,9 @@
 // Gravity and accelerometer bias by position-level least squares over chains of tracked frames
 // (see GravityBiasEstimator in inertial_internal.hpp). Unknown order: p_0, v_0, g, b.
 
+#include <Eigen/Cholesky>
 #include <cmath>
 #include <limits>
-
-#include <Eigen/Cholesky>
 
 #include "core/inertial_internal.hpp"
 
@@ -15,7 +14,9 @@ namespace {
 // A chain needs three positions before it says anything about (g, b): two fix p_0 and v_0.
 constexpr int kMinChainFrames = 3;
 
-Eigen::Vector3d infinite3() { return Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()); }
+Eigen::Vector3d infinite3() {
+  return Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+}
 
 }  // namespace
 
@@ -47,7 +48,8 @@ void GravityBiasEstimator::end_chain() {
     const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(Hnn);
     if (ldlt.info() == Eigen::Success) {
       const double decay = std::exp(-chain_tau_ / forget_time_);
-      prior_info_ = decay * prior_info_ + H_.bottomRightCorner<6, 6>() - Hnt.transpose() * ldlt.solve(Hnt);
+      prior_info_ =
+          decay * prior_info_ + H_.bottomRightCorner<6, 6>() - Hnt.transpose() * ldlt.solve(Hnt);
       prior_vec_ = decay * prior_vec_ + r_.tail<6>() - Hnt.transpose() * ldlt.solve(r_.head<6>());
       support_time_ = decay * support_time_ + chain_tau_;
     }
@@ -67,7 +69,8 @@ void GravityBiasEstimator::solve() {
   Vec12 r = r_;
   H.bottomRightCorner<6, 6>() += prior_info_;
   r.tail<6>() += prior_vec_;
-  H.bottomRightCorner<3, 3>() += Eigen::Matrix3d::Identity() / (bias_prior_sigma_ * bias_prior_sigma_);
+  H.bottomRightCorner<3, 3>() +=
+      Eigen::Matrix3d::Identity() / (bias_prior_sigma_ * bias_prior_sigma_);
   // p_0 and v_0 of a chain too short to fix them, and gravity before any information: a tiny
   // ridge keeps the system solvable; the covariance then shows them unknown.
   constexpr double kRidge = 1e-9;
@@ -82,7 +85,8 @@ void GravityBiasEstimator::solve() {
   const bool informed = chain_frames_ >= kMinChainFrames || support_time_ > 0;
   gravity_ = x.segment<3>(6);
   bias_ = x.tail<3>();
-  gravity_sigma_ = informed ? Eigen::Vector3d(covariance.block<3, 3>(6, 0).diagonal().cwiseSqrt()) : infinite3();
+  gravity_sigma_ =
+      informed ? Eigen::Vector3d(covariance.block<3, 3>(6, 0).diagonal().cwiseSqrt()) : infinite3();
   bias_sigma_ = covariance.bottomRightCorner<3, 3>().diagonal().cwiseSqrt();
 }
 

@@ -40,10 +40,10 @@ Status SampleBuffer::append(std::span<const ImuSample> samples) {
       if (!std::isfinite(s.accel[a])) return bad(kAccel[a], s.accel[a]);
     }
     if (s.timestamp < previous) {
-      return make_error(ErrorCode::kInvalidArgument,
-                        "IMU sample at t = " + format_time(s.timestamp) +
-                            " s is older than the sample before it at t = " +
-                            format_time(previous) + " s");
+      return make_error(
+          ErrorCode::kInvalidArgument,
+          "IMU sample at t = " + format_time(s.timestamp) +
+              " s is older than the sample before it at t = " + format_time(previous) + " s");
     }
     previous = s.timestamp;
   }
@@ -128,8 +128,8 @@ std::vector<double> SampleBuffer::breakpoints(double ta, double tb) const {
     // ends of the data, and the middle of a dropout (where the nearest sample changes).
     const bool gap_after =
         next == samples_.end() || next->timestamp - it->timestamp > max_sample_gap_;
-    const bool gap_before = it == samples_.begin() ||
-                            it->timestamp - std::prev(it)->timestamp > max_sample_gap_;
+    const bool gap_before =
+        it == samples_.begin() || it->timestamp - std::prev(it)->timestamp > max_sample_gap_;
     if (gap_after) add(it->timestamp + max_extrapolation_);
     if (gap_before) add(it->timestamp - max_extrapolation_);
     if (next != samples_.end() && gap_after) add(0.5 * (it->timestamp + next->timestamp));
@@ -178,7 +178,8 @@ ImuIntegration SampleBuffer::integrate(double ta, double tb, const Eigen::Vector
   out.R_a_b = R;
   out.complete = complete;
   out.covered_fraction = covered / (tb - ta);
-  out.samples_used = first <= last && first < samples_.size() ? static_cast<int>(last - first + 1) : 0;
+  out.samples_used =
+      first <= last && first < samples_.size() ? static_cast<int>(last - first + 1) : 0;
   return out;
 }
 

@@ -2,13 +2,13 @@
 // tracked camera rotation R_c and the gyro rotation R_i satisfy R_c R_ci = R_ci R_i, so their
 // rotation vectors satisfy a_c = R_ci a_i: an orthogonal Procrustes problem (Kabsch / SVD) in
 // which each vector's length (the rotation angle) weighs its axis. The gyro bias enters a_i
-// linearly (a_i(b) ~ a_i + Jr^-1 J_bias (b - b_used)), so it is solved jointly; otherwise a bias of 0.02 rad/s against ~0.5 rad/s of hand rotation tilts every axis by ~2 deg.
-
-#include <cmath>
-#include <limits>
+// linearly (a_i(b) ~ a_i + Jr^-1 J_bias (b - b_used)), so it is solved jointly; otherwise a bias of
+// 0.02 rad/s against ~0.5 rad/s of hand rotation tilts every axis by ~2 deg.
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
+#include <cmath>
+#include <limits>
 
 #include "core/inertial_internal.hpp"
 
@@ -26,7 +26,8 @@ using Vector6d = Eigen::Matrix<double, 6, 1>;
 
 HandEyeCalibrator::HandEyeCalibrator(int max_pairs) : max_pairs_(max_pairs) {}
 
-void HandEyeCalibrator::add(const Eigen::Matrix3d& R_camera_a_b, const ImuIntegration& integration) {
+void HandEyeCalibrator::add(const Eigen::Matrix3d& R_camera_a_b,
+                            const ImuIntegration& integration) {
   Pair p;
   p.a_camera = log_so3(R_camera_a_b);
   p.a_imu = log_so3(integration.R_a_b);
@@ -90,7 +91,8 @@ HandEyeCalibrator::Solution HandEyeCalibrator::solve(const Eigen::Vector3d& bias
   // The rotation's standard deviation about its least constrained axis, with the bias's
   // correlation included.
   const Eigen::Vector3d lambda =
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(covariance.topLeftCorner<3, 3>()).eigenvalues();
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(covariance.topLeftCorner<3, 3>())
+          .eigenvalues();
   out.sigma = std::sqrt(std::max(0.0, lambda[2]));
   return out;
 }

@@ -214,7 +214,9 @@ class VelocityFilter {
 
   bool has_velocity() const { return initialized_ && std::sqrt(P_) <= max_sigma_; }
   const Eigen::Vector3d& velocity() const { return v_; }
-  double sigma() const { return initialized_ ? std::sqrt(P_) : std::numeric_limits<double>::infinity(); }
+  double sigma() const {
+    return initialized_ ? std::sqrt(P_) : std::numeric_limits<double>::infinity();
+  }
   bool gravity_ready() const { return gravity_.support_time() >= gravity_min_time_; }
   const GravityBiasEstimator& gravity() const { return gravity_; }
   /// Forgets the velocity (a break in the frame chain); keeps gravity.
@@ -228,10 +230,12 @@ class VelocityFilter {
 
  private:
   /// Variance of a velocity measured from two tracked positions dt apart, (m/s)^2 per axis.
-  double pair_variance(double dt) const { return 2.0 * position_sigma_ * position_sigma_ / (dt * dt); }
+  double pair_variance(double dt) const {
+    return 2.0 * position_sigma_ * position_sigma_ / (dt * dt);
+  }
   /// The filter's part of step(): propagation and, for a reliable pair, the measurement update.
-  void update_velocity(double dt, const Eigen::Vector3d& p_a, const Eigen::Vector3d& p_b, bool reliable,
-                       const ImuIntegration* integration);
+  void update_velocity(double dt, const Eigen::Vector3d& p_a, const Eigen::Vector3d& p_b,
+                       bool reliable, const ImuIntegration* integration);
   /// Caps the speed at max_speed_ (the velocity's direction kept).
   void cap_speed();
   TranslationModel model_;

@@ -75,8 +75,7 @@ Status InertialConfig::validate() const {
     return config_error("hand_eye_min_pairs", hand_eye_min_pairs, "must be >= 3");
   }
   if (hand_eye_max_pairs < hand_eye_min_pairs) {
-    return config_error("hand_eye_max_pairs", hand_eye_max_pairs,
-                        "must be >= hand_eye_min_pairs");
+    return config_error("hand_eye_max_pairs", hand_eye_max_pairs, "must be >= hand_eye_min_pairs");
   }
   return {};
 }
@@ -166,18 +165,18 @@ MotionPrediction InertialNavigator::predict(double ta, double tb) const {
   out.covered_fraction = integration.covered_fraction;
   out.samples_used = integration.samples_used;
   out.rotation_from_imu = integration.complete && s.mounting_trusted && !s.samples.empty();
-  const Eigen::Matrix3d R_a_b = out.rotation_from_imu
-                                    ? Eigen::Matrix3d(s.R_camera_imu * integration.R_a_b *
-                                                      s.R_camera_imu.transpose())
-                                    : Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d R_a_b =
+      out.rotation_from_imu
+          ? Eigen::Matrix3d(s.R_camera_imu * integration.R_a_b * s.R_camera_imu.transpose())
+          : Eigen::Matrix3d::Identity();
   out.T_a_b.linear() = R_a_b;
   if (out.rotation_from_imu) {
     const double dt = tb - ta;
     const double bias_var = s.bias.covariance().trace() / 3.0;
-    out.rotation_sigma = std::sqrt(s.config.gyro_noise_density * s.config.gyro_noise_density * dt + bias_var * dt * dt);
+    out.rotation_sigma = std::sqrt(s.config.gyro_noise_density * s.config.gyro_noise_density * dt +
+                                   bias_var * dt * dt);
   }
-  if (s.config.translation != TranslationModel::kNone && continues &&
-      s.velocity.has_velocity()) {
+  if (s.config.translation != TranslationModel::kNone && continues && s.velocity.has_velocity()) {
     const inertial::VelocityFilter::Propagation prop =
         s.velocity.propagate(tb - ta, out.rotation_from_imu ? &integration : nullptr);
     // Camera b relative to camera a, from the IMU point's displacement and the lever arm.
@@ -196,13 +195,12 @@ void InertialNavigator::observe(double ta, double tb, const Eigen::Isometry3d& T
   if (!(tb > ta) || !T_world_a.matrix().allFinite() || !T_world_b.matrix().allFinite()) return;
   const double dt = tb - ta;
   const Eigen::Matrix3d R_camera_a_b = T_world_a.linear().transpose() * T_world_b.linear();
-  const inertial::ImuIntegration integration = s.samples.integrate(
-      ta, tb, s.bias.bias(), T_world_a.linear() * s.R_camera_imu);
+  const inertial::ImuIntegration integration =
+      s.samples.integrate(ta, tb, s.bias.bias(), T_world_a.linear() * s.R_camera_imu);
   if (reliable && integration.complete) {
     if (!s.config.T_camera_imu_known) s.observe_mounting(R_camera_a_b, integration);
     if (s.config.estimate_gyro_bias && s.mounting_trusted) {
-      const Eigen::Matrix3d R_imu_icp =
-          s.R_camera_imu.transpose() * R_camera_a_b * s.R_camera_imu;
+      const Eigen::Matrix3d R_imu_icp = s.R_camera_imu.transpose() * R_camera_a_b * s.R_camera_imu;
       s.bias.update(tb, integration, R_imu_icp, dt, s.hand_eye_sigma);
     }
   }
@@ -238,7 +236,9 @@ InertialStatus InertialNavigator::status() const {
 
 void InertialNavigator::forget_velocity() { state_->velocity.reset_velocity(); }
 
-void InertialNavigator::correct_velocity(const Eigen::Vector3d& dv) { state_->velocity.correct_velocity(dv); }
+void InertialNavigator::correct_velocity(const Eigen::Vector3d& dv) {
+  state_->velocity.correct_velocity(dv);
+}
 
 void InertialNavigator::reset() {
   state_->has_last = false;

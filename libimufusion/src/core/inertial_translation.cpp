@@ -14,9 +14,12 @@ namespace imufusion {
 
 const char* to_string(TranslationModel model) {
   switch (model) {
-    case TranslationModel::kNone: return "none";
-    case TranslationModel::kConstantVelocity: return "constant-velocity";
-    case TranslationModel::kAccelerometer: return "accelerometer";
+    case TranslationModel::kNone:
+      return "none";
+    case TranslationModel::kConstantVelocity:
+      return "constant-velocity";
+    case TranslationModel::kAccelerometer:
+      return "accelerometer";
   }
   return "unknown";
 }
@@ -52,8 +55,8 @@ VelocityFilter::Propagation VelocityFilter::propagate(double dt,
     const double keep = std::exp(-dt / decay_time_);
     out.velocity_b = v_ * keep;
     out.delta_p = v_ * decay_time_ * (1.0 - keep);
-  } else if (model_ == TranslationModel::kAccelerometer && gravity_ready() && integration != nullptr &&
-             integration->complete) {
+  } else if (model_ == TranslationModel::kAccelerometer && gravity_ready() &&
+             integration != nullptr && integration->complete) {
     const Eigen::Vector3d& g = gravity_.gravity();
     const Eigen::Vector3d& b = gravity_.accel_bias();
     out.velocity_b = v_ + integration->delta_v - integration->Jv_accel * b + g * dt;
@@ -79,8 +82,9 @@ void VelocityFilter::step(double dt, const Eigen::Vector3d& p_a, const Eigen::Ve
   gravity_.step(dt, p_a, p_b, reliable, integration);
 }
 
-void VelocityFilter::update_velocity(double dt, const Eigen::Vector3d& p_a, const Eigen::Vector3d& p_b,
-                                     bool reliable, const ImuIntegration* integration) {
+void VelocityFilter::update_velocity(double dt, const Eigen::Vector3d& p_a,
+                                     const Eigen::Vector3d& p_b, bool reliable,
+                                     const ImuIntegration* integration) {
   const double measurement_var = pair_variance(dt);
   const Eigen::Vector3d mean_velocity = (p_b - p_a) / dt;
   if (!initialized_) {

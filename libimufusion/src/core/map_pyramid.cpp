@@ -24,7 +24,8 @@ MapLevel downsample(const MapLevel& src, float max_jump_fraction) {
       float nearest = 0;
       for (std::size_t i : block) {
         const Eigen::Vector4f& p = src.vertices.data[i];
-        if (p.w() > 0 && src.normals.data[i].w() > 0 && (nearest == 0 || p.z() < nearest)) nearest = p.z();
+        if (p.w() > 0 && src.normals.data[i].w() > 0 && (nearest == 0 || p.z() < nearest))
+          nearest = p.z();
       }
       if (nearest <= 0) continue;
       // Sums of (x, y, z, 1): w counts the entries.
@@ -37,11 +38,13 @@ MapLevel downsample(const MapLevel& src, float max_jump_fraction) {
           normal += n;
         }
       }
-      const float length = std::sqrt(normal.x() * normal.x() + normal.y() * normal.y() + normal.z() * normal.z());
+      const float length =
+          std::sqrt(normal.x() * normal.x() + normal.y() * normal.y() + normal.z() * normal.z());
       if (length <= 0) continue;
       const std::size_t out = static_cast<std::size_t>(v) * width + u;
       dst.vertices.data[out] = point / point.w();
-      dst.normals.data[out] = Eigen::Vector4f(normal.x() / length, normal.y() / length, normal.z() / length, 1.0f);
+      dst.normals.data[out] =
+          Eigen::Vector4f(normal.x() / length, normal.y() / length, normal.z() / length, 1.0f);
     }
   }
   return dst;

@@ -12,35 +12,45 @@ Status ReconstructorConfig::validate() const {
   };
   const Intrinsics& k = intrinsics;
   if (k.width <= 0 || k.height <= 0)
-    return bad("intrinsics size " + std::to_string(k.width) + "x" + std::to_string(k.height) + " is empty");
+    return bad("intrinsics size " + std::to_string(k.width) + "x" + std::to_string(k.height) +
+               " is empty");
   if (!(k.fx > 0 && k.fy > 0 && std::isfinite(k.cx) && std::isfinite(k.cy)))
     return bad("intrinsics need positive focal lengths and a finite principal point");
   IMUFUSION_RETURN_IF_ERROR(preprocess.validate());
   IMUFUSION_RETURN_IF_ERROR(icp.validate(preprocess.levels));
   if (tracking.recovery_frames < 1)
-    return bad("tracking.recovery_frames must be at least 1, got " + std::to_string(tracking.recovery_frames));
+    return bad("tracking.recovery_frames must be at least 1, got " +
+               std::to_string(tracking.recovery_frames));
   if (tracking.prediction_window < 0)
-    return bad("tracking.prediction_window must be non-negative, got " + std::to_string(tracking.prediction_window));
+    return bad("tracking.prediction_window must be non-negative, got " +
+               std::to_string(tracking.prediction_window));
   if (tracking.pairing_window < 0)
-    return bad("tracking.pairing_window must be non-negative, got " + std::to_string(tracking.pairing_window));
+    return bad("tracking.pairing_window must be non-negative, got " +
+               std::to_string(tracking.pairing_window));
   if (!(tracking.pairing_ratio >= 0 && tracking.pairing_ratio <= 1))
-    return bad("tracking.pairing_ratio must be in [0, 1], got " + std::to_string(tracking.pairing_ratio));
+    return bad("tracking.pairing_ratio must be in [0, 1], got " +
+               std::to_string(tracking.pairing_ratio));
   if (!(tracking.pairing_floor >= 0 && tracking.pairing_floor <= 1))
-    return bad("tracking.pairing_floor must be in [0, 1], got " + std::to_string(tracking.pairing_floor));
+    return bad("tracking.pairing_floor must be in [0, 1], got " +
+               std::to_string(tracking.pairing_floor));
   if (recovery.icp_iterations < 1 || recovery.icp_iterations > 100)
-    return bad("recovery.icp_iterations must be 1..100, got " + std::to_string(recovery.icp_iterations));
+    return bad("recovery.icp_iterations must be 1..100, got " +
+               std::to_string(recovery.icp_iterations));
   if (imu.enabled) IMUFUSION_RETURN_IF_ERROR(inertial.validate());
   if (!(recovery.converged_rotation > 0 && recovery.converged_translation > 0))
     return bad("recovery convergence thresholds must be positive");
   const RelocalizationConfig& r = relocalization;
-  if (r.interval < 1) return bad("relocalization.interval must be at least 1, got " + std::to_string(r.interval));
+  if (r.interval < 1)
+    return bad("relocalization.interval must be at least 1, got " + std::to_string(r.interval));
   if (r.candidates < 1 || r.candidates > 16)
     return bad("relocalization.candidates must be 1..16, got " + std::to_string(r.candidates));
-  if (!(r.cell > 0 && r.cell <= 1)) return bad("relocalization.cell must be in (0, 1] m, got " + std::to_string(r.cell));
+  if (!(r.cell > 0 && r.cell <= 1))
+    return bad("relocalization.cell must be in (0, 1] m, got " + std::to_string(r.cell));
   if (!(r.max_radius >= 0 && r.max_radius <= 10))
     return bad("relocalization.max_radius must be 0..10 m, got " + std::to_string(r.max_radius));
   if (smoothing.retrack_frames < 0 || smoothing.retrack_frames > 100000)
-    return bad("smoothing.retrack_frames must be 0..100000, got " + std::to_string(smoothing.retrack_frames));
+    return bad("smoothing.retrack_frames must be 0..100000, got " +
+               std::to_string(smoothing.retrack_frames));
   const std::pair<const char*, double> non_negative[] = {
       {"imu.max_partial_seconds", imu.max_partial_seconds},
       {"imu.seed_reach_pixels", imu.seed_reach_pixels},
@@ -53,10 +63,12 @@ Status ReconstructorConfig::validate() const {
       return bad(std::string(name) + " must be finite and >= 0, got " + std::to_string(value));
   for (const double scale : {smoothing.gyro_bias_sigma_scale, smoothing.gravity_sigma_scale})
     if (!(scale > 0) || !std::isfinite(scale))
-      return bad("smoothing: drift sigma scales must be finite and positive, got " + std::to_string(scale));
+      return bad("smoothing: drift sigma scales must be finite and positive, got " +
+                 std::to_string(scale));
   const Eigen::Matrix4d m = initial_pose.matrix();
   if (!m.allFinite() ||
-      (initial_pose.linear().transpose() * initial_pose.linear() - Eigen::Matrix3d::Identity()).norm() > 1e-6)
+      (initial_pose.linear().transpose() * initial_pose.linear() - Eigen::Matrix3d::Identity())
+              .norm() > 1e-6)
     return bad("initial_pose is not a finite rigid transform");
   return {};
 }

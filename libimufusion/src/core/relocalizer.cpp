@@ -1,19 +1,18 @@
 #include "core/relocalizer.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <unordered_set>
-
-#include <Eigen/Geometry>
-
 
 namespace imufusion {
 namespace {
 
 struct CellHash {
   std::size_t operator()(const Eigen::Vector3i& c) const {
-    return (static_cast<std::size_t>(c.x()) * 73856093u) ^ (static_cast<std::size_t>(c.y()) * 19349663u) ^
+    return (static_cast<std::size_t>(c.x()) * 73856093u) ^
+           (static_cast<std::size_t>(c.y()) * 19349663u) ^
            (static_cast<std::size_t>(c.z()) * 83492791u);
   }
 };
@@ -43,7 +42,8 @@ SurfaceDistanceField::SurfaceDistanceField(const std::vector<Eigen::Vector3d>& s
   const int reach = static_cast<int>(std::ceil(cutoff / cell));
   origin_ = lo - Eigen::Vector3d::Constant(reach * cell);
   size_ = (((hi - origin_) / cell).array().floor().cast<int>() + reach + 1).matrix();
-  distance_.assign(static_cast<std::size_t>(size_.x()) * size_.y() * size_.z(), static_cast<float>(cutoff));
+  distance_.assign(static_cast<std::size_t>(size_.x()) * size_.y() * size_.z(),
+                   static_cast<float>(cutoff));
   for (const Eigen::Vector3d& p : reps) {
     const Eigen::Vector3i c = ((p - origin_) / cell).array().round().cast<int>();
     for (int dz = -reach; dz <= reach; ++dz)
@@ -61,7 +61,8 @@ SurfaceDistanceField::SurfaceDistanceField(const std::vector<Eigen::Vector3d>& s
 
 std::int64_t SurfaceDistanceField::index(const Eigen::Vector3i& c) const {
   if ((c.array() < 0).any() || (c.array() >= size_.array()).any()) return -1;
-  return c.x() + static_cast<std::int64_t>(size_.x()) * (c.y() + static_cast<std::int64_t>(size_.y()) * c.z());
+  return c.x() + static_cast<std::int64_t>(size_.x()) *
+                     (c.y() + static_cast<std::int64_t>(size_.y()) * c.z());
 }
 
 double SurfaceDistanceField::distance(const Eigen::Vector3d& p) const {
@@ -74,7 +75,8 @@ std::vector<TranslationCandidate> SurfaceDistanceField::search(
     const std::vector<Eigen::Vector3d>& points_camera, const Eigen::Matrix3d& R_world_camera,
     const Eigen::Vector3d& center, double radius, int count) const {
   std::vector<TranslationCandidate> out;
-  if (empty() || points_camera.empty() || count <= 0 || !(radius >= 0) || !center.allFinite()) return out;
+  if (empty() || points_camera.empty() || count <= 0 || !(radius >= 0) || !center.allFinite())
+    return out;
   // Every point's grid cell at offset zero; an offset shifts all of them by whole cells.
   std::vector<Eigen::Vector3i> base;
   base.reserve(points_camera.size());
@@ -124,7 +126,8 @@ std::vector<TranslationCandidate> SurfaceDistanceField::search(
             }
         if (lowest) minima.push_back({Eigen::Vector3i(x, y, z), c});
       }
-  std::sort(minima.begin(), minima.end(), [](const Minimum& a, const Minimum& b) { return a.cost < b.cost; });
+  std::sort(minima.begin(), minima.end(),
+            [](const Minimum& a, const Minimum& b) { return a.cost < b.cost; });
   std::vector<Eigen::Vector3i> taken;
   for (const Minimum& m : minima) {
     if (static_cast<int>(out.size()) >= count) break;
@@ -149,12 +152,13 @@ std::vector<TranslationCandidate> SurfaceDistanceField::search(
 }
 
 std::vector<TranslationCandidate> merge_candidates(const std::vector<TranslationCandidate>& a,
-                                                   const std::vector<TranslationCandidate>& b, int count,
-                                                   double separation) {
+                                                   const std::vector<TranslationCandidate>& b,
+                                                   int count, double separation) {
   std::vector<TranslationCandidate> all = a;
   all.insert(all.end(), b.begin(), b.end());
-  std::stable_sort(all.begin(), all.end(),
-                   [](const TranslationCandidate& x, const TranslationCandidate& y) { return x.cost < y.cost; });
+  std::stable_sort(
+      all.begin(), all.end(),
+      [](const TranslationCandidate& x, const TranslationCandidate& y) { return x.cost < y.cost; });
   std::vector<TranslationCandidate> out;
   for (const TranslationCandidate& c : all) {
     if (static_cast<int>(out.size()) >= count) break;

@@ -10,11 +10,10 @@
 // local minima are the candidates; the caller runs full ICP from each and accepts only an
 // alignment that is reliable in all six directions. Pure C++, no GPU.
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <optional>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "imufusion/volume.hpp"
 
@@ -22,7 +21,7 @@ namespace imufusion {
 
 struct TranslationCandidate {
   Eigen::Vector3d translation = Eigen::Vector3d::Zero();  // world, metres
-  double cost = 0;        // mean of min(d, cutoff)^2 over the points, m^2
+  double cost = 0;           // mean of min(d, cutoff)^2 over the points, m^2
   double near_fraction = 0;  // points whose distance is within one cell
 };
 
@@ -60,8 +59,8 @@ class SurfaceDistanceField {
 /// closer than `separation` along every axis counting once (the lower cost kept): the rule
 /// SurfaceDistanceField::search applies within one search, with separation = 2 cells.
 std::vector<TranslationCandidate> merge_candidates(const std::vector<TranslationCandidate>& a,
-                                                   const std::vector<TranslationCandidate>& b, int count,
-                                                   double separation);
+                                                   const std::vector<TranslationCandidate>& b,
+                                                   int count, double separation);
 
 /// World points of the zero crossing of a TSDF snapshot: the voxels observed (weight > 0) with
 /// |tsdf| below half the truncation band, one point per voxel.

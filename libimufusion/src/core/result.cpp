@@ -4,16 +4,26 @@ namespace imufusion {
 
 const char* to_string(ErrorCode code) {
   switch (code) {
-    case ErrorCode::kInvalidArgument: return "invalid argument";
-    case ErrorCode::kNotFound: return "not found";
-    case ErrorCode::kIoError: return "i/o error";
-    case ErrorCode::kParseError: return "parse error";
-    case ErrorCode::kUnsupported: return "unsupported";
-    case ErrorCode::kNoDevice: return "no device";
-    case ErrorCode::kOutOfDeviceMemory: return "out of device memory";
-    case ErrorCode::kDeviceLost: return "device lost";
-    case ErrorCode::kVulkanError: return "Vulkan error";
-    case ErrorCode::kInternal: return "internal error";
+    case ErrorCode::kInvalidArgument:
+      return "invalid argument";
+    case ErrorCode::kNotFound:
+      return "not found";
+    case ErrorCode::kIoError:
+      return "i/o error";
+    case ErrorCode::kParseError:
+      return "parse error";
+    case ErrorCode::kUnsupported:
+      return "unsupported";
+    case ErrorCode::kNoDevice:
+      return "no device";
+    case ErrorCode::kOutOfDeviceMemory:
+      return "out of device memory";
+    case ErrorCode::kDeviceLost:
+      return "device lost";
+    case ErrorCode::kVulkanError:
+      return "Vulkan error";
+    case ErrorCode::kInternal:
+      return "internal error";
   }
   return "unknown error";
 }

@@ -1,8 +1,7 @@
 #include "core/so3.hpp"
 
-#include <cmath>
-
 #include <Eigen/Geometry>
+#include <cmath>
 
 namespace imufusion {
 

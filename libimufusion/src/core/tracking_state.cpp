@@ -8,20 +8,28 @@ namespace imufusion {
 
 const char* to_string(TrackingStatus status) {
   switch (status) {
-    case TrackingStatus::kTracking: return "tracking";
-    case TrackingStatus::kLost: return "lost";
-    case TrackingStatus::kRecovering: return "recovering";
+    case TrackingStatus::kTracking:
+      return "tracking";
+    case TrackingStatus::kLost:
+      return "lost";
+    case TrackingStatus::kRecovering:
+      return "recovering";
   }
   return "unknown";
 }
 
 const char* to_string(PoseSource source) {
   switch (source) {
-    case PoseSource::kInitial: return "initial";
-    case PoseSource::kIcp: return "icp";
-    case PoseSource::kIcpPartial: return "icp_partial";
-    case PoseSource::kDeadReckoning: return "dead_reckoning";
-    case PoseSource::kKnown: return "known";
+    case PoseSource::kInitial:
+      return "initial";
+    case PoseSource::kIcp:
+      return "icp";
+    case PoseSource::kIcpPartial:
+      return "icp_partial";
+    case PoseSource::kDeadReckoning:
+      return "dead_reckoning";
+    case PoseSource::kKnown:
+      return "known";
   }
   return "unknown";
 }
@@ -81,8 +89,8 @@ std::optional<TrackingStatus> parse_tracking_status(std::string_view name) {
 }
 
 std::optional<PoseSource> parse_pose_source(std::string_view name) {
-  for (auto s : {PoseSource::kInitial, PoseSource::kIcp, PoseSource::kIcpPartial, PoseSource::kDeadReckoning,
-                 PoseSource::kKnown})
+  for (auto s : {PoseSource::kInitial, PoseSource::kIcp, PoseSource::kIcpPartial,
+                 PoseSource::kDeadReckoning, PoseSource::kKnown})
     if (name == to_string(s)) return s;
   return std::nullopt;
 }
@@ -100,7 +108,8 @@ TrackingDecision TrackingStateMachine::step(bool icp_reliable, bool converged, b
   const PoseSource lost_source = icp_partial ? PoseSource::kIcpPartial : PoseSource::kDeadReckoning;
   if (status_ == TrackingStatus::kTracking) {
     if (icp_reliable) return {TrackingStatus::kTracking, PoseSource::kIcp, true, 0, false};
-    if (icp_partial && partial_may_fuse) return {TrackingStatus::kTracking, PoseSource::kIcpPartial, true, 0, false};
+    if (icp_partial && partial_may_fuse)
+      return {TrackingStatus::kTracking, PoseSource::kIcpPartial, true, 0, false};
     status_ = TrackingStatus::kLost;
     return {TrackingStatus::kLost, lost_source, false, 0, false};
   }
@@ -112,7 +121,8 @@ TrackingDecision TrackingStateMachine::step(bool icp_reliable, bool converged, b
   if (!(icp_reliable && converged)) {
     status_ = TrackingStatus::kLost;
     good_frames_ = 0;
-    return {TrackingStatus::kLost, icp_reliable ? PoseSource::kDeadReckoning : lost_source, false, 0, false};
+    return {TrackingStatus::kLost, icp_reliable ? PoseSource::kDeadReckoning : lost_source, false,
+            0, false};
   }
   good_frames_ = std::min(good_frames_ + 1, std::max(config_.recovery_frames, 1));
   if (good_frames_ >= config_.recovery_frames) {

@@ -1,12 +1,13 @@
 // TsdfFusion: the public face of the GPU volume (preprocessing for metric depth, allocation,
 // integration, raycast, snapshot).
 
+#include "imufusion/fusion.hpp"
+
 #include <utility>
 
 #include "gpu/preprocessor.hpp"
 #include "gpu/rgba.hpp"
 #include "gpu/volume.hpp"
-#include "imufusion/fusion.hpp"
 
 namespace imufusion {
 struct TsdfFusion::Impl {
@@ -25,7 +26,8 @@ TsdfFusion::~TsdfFusion() = default;
 TsdfFusion::TsdfFusion(TsdfFusion&&) noexcept = default;
 TsdfFusion& TsdfFusion::operator=(TsdfFusion&&) noexcept = default;
 
-Result<TsdfFusion> TsdfFusion::create(const VolumeConfig& volume, const PreprocessConfig& preprocess,
+Result<TsdfFusion> TsdfFusion::create(const VolumeConfig& volume,
+                                      const PreprocessConfig& preprocess,
                                       const Intrinsics& intrinsics, const DeviceOptions& device) {
   auto context = gpu::Context::create(device);
   if (!context) return context.error();
@@ -39,10 +41,12 @@ Result<TsdfFusion> TsdfFusion::create(const VolumeConfig& volume, const Preproce
   auto seq = gpu::CommandSequence::create(impl->context, impl->preprocess.dispatch_count());
   if (!seq) return seq.error();
   impl->preprocess_seq = std::move(*seq);
-  auto vol = gpu::TsdfVolume::create(impl->context, volume, preprocess.workgroup_x, preprocess.workgroup_y);
+  auto vol = gpu::TsdfVolume::create(impl->context, volume, preprocess.workgroup_x,
+                                     preprocess.workgroup_y);
   if (!vol) return vol.error();
   impl->volume = std::move(*vol);
-  auto color = gpu::Buffer::create(impl->context, static_cast<std::size_t>(intrinsics.width) * intrinsics.height * 4);
+  auto color = gpu::Buffer::create(
+      impl->context, static_cast<std::size_t>(intrinsics.width) * intrinsics.height * 4);
   if (!color) return color.error();
   impl->color = std::move(*color);
   return TsdfFusion(std::move(impl));
@@ -54,9 +58,9 @@ Result<IntegrationStats> TsdfFusion::integrate(const DepthImage& depth, const Co
   Impl& m = *impl_;
   if (color != nullptr && (color->width != depth.width || color->height != depth.height)) {
     return make_error(ErrorCode::kInvalidArgument,
-                      "colour image " + std::to_string(color->width) + "x" + std::to_string(color->height) +
-                          " does not match depth " + std::to_string(depth.width) + "x" +
-                          std::to_string(depth.height));
+                      "colour image " + std::to_string(color->width) + "x" +
+                          std::to_string(color->height) + " does not match depth " +
+                          std::to_string(depth.width) + "x" + std::to_string(depth.height));
   }
   IMUFUSION_RETURN_IF_ERROR(m.preprocess.upload(depth));
   IMUFUSION_RETURN_IF_ERROR(m.preprocess_seq.begin());
@@ -89,15 +93,17 @@ Result<RaycastImages> TsdfFusion::raycast(const Eigen::Isometry3d& T_world_camer
     if (!b) return b.error();
     buffers.push_back(std::move(*b));
   }
-  IMUFUSION_RETURN_IF_ERROR(impl_->volume.raycast(k, T_world_camera, near_depth, far_depth, buffers[0],
-                                                  buffers[1], buffers[2], buffers[3], timings));
+  IMUFUSION_RETURN_IF_ERROR(impl_->volume.raycast(k, T_world_camera, near_depth, far_depth,
+                                                  buffers[0], buffers[1], buffers[2], buffers[3],
+                                                  timings));
   RaycastImages out;
   for (int i = 0; i < 2; ++i) {
     Vec4Image& image = i == 0 ? out.vertices : out.normals;
     image.width = k.width;
     image.height = k.height;
     image.data.resize(pixels);
-    IMUFUSION_RETURN_IF_ERROR(buffers[static_cast<std::size_t>(i)].download(image.data.data(), pixels * 16));
+    IMUFUSION_RETURN_IF_ERROR(
+        buffers[static_cast<std::size_t>(i)].download(image.data.data(), pixels * 16));
   }
   auto shaded = buffers[2].download_as<std::uint32_t>(pixels);
   if (!shaded) return shaded.error();

@@ -26,7 +26,8 @@ Result<IcpKernels> IcpKernels::create(std::shared_ptr<Context> context, std::siz
   if (!associate) return associate.error();
   k.associate_ = std::move(*associate);
   // One workgroup (of the shader's fixed 128 invocations) per grid cell.
-  auto reduce = ComputePipeline::create(context, {"icp_reduce", 3, sizeof(layout::IcpReduceParams), 1, 1});
+  auto reduce =
+      ComputePipeline::create(context, {"icp_reduce", 3, sizeof(layout::IcpReduceParams), 1, 1});
   if (!reduce) return reduce.error();
   k.reduce_ = std::move(*reduce);
   auto rows = Buffer::create(context, max_pixels * ICP_ROW_FLOATS * sizeof(float));
@@ -45,16 +46,33 @@ void IcpKernels::record(CommandSequence& seq, const IcpMaps& current, const IcpM
   const Eigen::Matrix3f R = T.linear().cast<float>();
   const Eigen::Vector3f t = T.translation().cast<float>();
   const layout::IcpAssociateParams params{
-      static_cast<std::uint32_t>(current.width), static_cast<std::uint32_t>(current.height),
-      static_cast<std::uint32_t>(reference.width), static_cast<std::uint32_t>(reference.height),
-      static_cast<float>(k.fx), static_cast<float>(k.fy), static_cast<float>(k.cx),
+      static_cast<std::uint32_t>(current.width),
+      static_cast<std::uint32_t>(current.height),
+      static_cast<std::uint32_t>(reference.width),
+      static_cast<std::uint32_t>(reference.height),
+      static_cast<float>(k.fx),
+      static_cast<float>(k.fy),
+      static_cast<float>(k.cx),
       static_cast<float>(k.cy),
-      R(0, 0), R(0, 1), R(0, 2), t.x(),
-      R(1, 0), R(1, 1), R(1, 2), t.y(),
-      R(2, 0), R(2, 1), R(2, 2), t.z(),
-      max_distance, min_normal_cos,
-      static_cast<float>(noise_.a), static_cast<float>(noise_.b), static_cast<float>(noise_.z0),
-      static_cast<float>(gate_.noise_k), static_cast<float>(std::cos(gate_.max_angle_deg * M_PI / 180.0))};
+      R(0, 0),
+      R(0, 1),
+      R(0, 2),
+      t.x(),
+      R(1, 0),
+      R(1, 1),
+      R(1, 2),
+      t.y(),
+      R(2, 0),
+      R(2, 1),
+      R(2, 2),
+      t.z(),
+      max_distance,
+      min_normal_cos,
+      static_cast<float>(noise_.a),
+      static_cast<float>(noise_.b),
+      static_cast<float>(noise_.z0),
+      static_cast<float>(gate_.noise_k),
+      static_cast<float>(std::cos(gate_.max_angle_deg * M_PI / 180.0))};
   const std::string suffix = "[" + std::to_string(level) + "]";
   seq.dispatch(associate_,
                {current.vertices, current.normals, reference.vertices, reference.normals, &rows_},
@@ -63,7 +81,8 @@ void IcpKernels::record(CommandSequence& seq, const IcpMaps& current, const IcpM
   groups_ = (row_count + kRowsPerGroup - 1) / kRowsPerGroup;
   const layout::IcpReduceParams reduce{row_count, kRowsPerGroup, static_cast<float>(noise_.a),
                                        static_cast<float>(noise_.b), static_cast<float>(noise_.z0)};
-  seq.dispatch(reduce_, {&rows_, current.vertices, &partials_}, reduce, groups_, 1, "icp_reduce" + suffix);
+  seq.dispatch(reduce_, {&rows_, current.vertices, &partials_}, reduce, groups_, 1,
+               "icp_reduce" + suffix);
 }
 
 Result<NormalEquations> IcpKernels::read_equations() const {
@@ -72,7 +91,8 @@ Result<NormalEquations> IcpKernels::read_equations() const {
   double sums[ICP_REDUCE_VALUES] = {};
   for (std::uint32_t g = 0; g < groups_; ++g)
     for (int v = 0; v < ICP_REDUCE_VALUES; ++v)
-      sums[v] += partials[static_cast<std::size_t>(g) * ICP_PARTIAL_STRIDE + static_cast<std::size_t>(v)];
+      sums[v] +=
+          partials[static_cast<std::size_t>(g) * ICP_PARTIAL_STRIDE + static_cast<std::size_t>(v)];
   NormalEquations eq;
   int index = 0;
   for (int i = 0; i < 6; ++i) {

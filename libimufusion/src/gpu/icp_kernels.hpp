@@ -5,12 +5,12 @@
 #include <memory>
 #include <vector>
 
+#include "gpu/preprocessor.hpp"
+#include "imufusion/icp.hpp"
 #include "vk/buffer.hpp"
 #include "vk/command_sequence.hpp"
 #include "vk/context.hpp"
 #include "vk/pipeline.hpp"
-#include "gpu/preprocessor.hpp"
-#include "imufusion/icp.hpp"
 
 namespace imufusion::gpu {
 

@@ -4,11 +4,11 @@
 #include <array>
 #include <utility>
 
-#include "vk/command_sequence.hpp"
-#include "vk/context.hpp"
 #include "gpu/icp_kernels.hpp"
 #include "gpu/preprocessor.hpp"
 #include "imufusion/icp.hpp"
+#include "vk/command_sequence.hpp"
+#include "vk/context.hpp"
 
 namespace imufusion {
 
@@ -80,16 +80,16 @@ Status IcpTracker::set_reference_maps(const Vec4Image& vertices, const Vec4Image
   return {};
 }
 
-Result<IcpResult> IcpTracker::track(const DepthImage& depth, const Eigen::Isometry3d& T_ref_cur_init,
+Result<IcpResult> IcpTracker::track(const DepthImage& depth,
+                                    const Eigen::Isometry3d& T_ref_cur_init,
                                     std::vector<KernelTiming>* timings) {
   if (!impl_->has_reference)
     return make_error(ErrorCode::kInvalidArgument, "IcpTracker::track before set_reference");
   const int current = 1 - impl_->reference;
   IMUFUSION_RETURN_IF_ERROR(impl_->preprocess(current, depth, timings));
-  gpu::GpuNormalEquationSource source(impl_->kernels, impl_->icp_seq,
-                                      impl_->frames[static_cast<std::size_t>(current)],
-                                      impl_->frames[static_cast<std::size_t>(impl_->reference)],
-                                      timings);
+  gpu::GpuNormalEquationSource source(
+      impl_->kernels, impl_->icp_seq, impl_->frames[static_cast<std::size_t>(current)],
+      impl_->frames[static_cast<std::size_t>(impl_->reference)], timings);
   return run_icp(source, impl_->icp, T_ref_cur_init);
 }
 

@@ -10,9 +10,11 @@ namespace imufusion {
 
 Status PreprocessConfig::validate() const {
   auto bad = [](const std::string& what) { return make_error(ErrorCode::kInvalidArgument, what); };
-  if (levels < 1 || levels > 6) return bad("pyramid levels must be 1..6, got " + std::to_string(levels));
+  if (levels < 1 || levels > 6)
+    return bad("pyramid levels must be 1..6, got " + std::to_string(levels));
   if (!(min_depth >= 0 && max_depth > min_depth))
-    return bad("depth range [" + std::to_string(min_depth) + ", " + std::to_string(max_depth) + "] is empty");
+    return bad("depth range [" + std::to_string(min_depth) + ", " + std::to_string(max_depth) +
+               "] is empty");
   if (bilateral_radius < 0 || bilateral_radius > 15)
     return bad("bilateral radius must be 0..15, got " + std::to_string(bilateral_radius));
   if (!(bilateral_sigma_space > 0) || !(bilateral_sigma_depth > 0))
@@ -50,8 +52,9 @@ Result<Preprocessor> Preprocessor::create(std::shared_ptr<Context> context,
       !(intrinsics.fx > 0) || !(intrinsics.fy > 0)) {
     return make_error(ErrorCode::kInvalidArgument,
                       "intrinsics " + std::to_string(intrinsics.width) + "x" +
-                          std::to_string(intrinsics.height) + " fx " + std::to_string(intrinsics.fx) +
-                          " cannot hold " + std::to_string(config.levels) + " pyramid levels");
+                          std::to_string(intrinsics.height) + " fx " +
+                          std::to_string(intrinsics.fx) + " cannot hold " +
+                          std::to_string(config.levels) + " pyramid levels");
   }
   Preprocessor p;
   p.config_ = config;
@@ -63,9 +66,11 @@ Result<Preprocessor> Preprocessor::create(std::shared_ptr<Context> context,
     out = std::move(*pipeline);
     return {};
   };
-  IMUFUSION_RETURN_IF_ERROR(make("depth_to_metres", sizeof(layout::DepthToMetresParams), p.to_metres_));
+  IMUFUSION_RETURN_IF_ERROR(
+      make("depth_to_metres", sizeof(layout::DepthToMetresParams), p.to_metres_));
   IMUFUSION_RETURN_IF_ERROR(make("bilateral", sizeof(layout::BilateralParams), p.bilateral_));
-  IMUFUSION_RETURN_IF_ERROR(make("pyramid_down", sizeof(layout::PyramidDownParams), p.pyramid_down_));
+  IMUFUSION_RETURN_IF_ERROR(
+      make("pyramid_down", sizeof(layout::PyramidDownParams), p.pyramid_down_));
   IMUFUSION_RETURN_IF_ERROR(make("vertex_map", sizeof(layout::VertexMapParams), p.vertex_map_));
   IMUFUSION_RETURN_IF_ERROR(make("normal_map", sizeof(layout::NormalMapParams), p.normal_map_));
 
@@ -115,13 +120,15 @@ Status Preprocessor::upload_maps(const Vec4Image& vertices, const Vec4Image& nor
   const Intrinsics& k = levels_.front();
   const auto pixels = static_cast<std::size_t>(k.width) * k.height;
   if (vertices.width != k.width || vertices.height != k.height || normals.width != k.width ||
-      normals.height != k.height || vertices.data.size() != pixels || normals.data.size() != pixels) {
+      normals.height != k.height || vertices.data.size() != pixels ||
+      normals.data.size() != pixels) {
     return make_error(ErrorCode::kInvalidArgument,
                       "reference maps are " + std::to_string(vertices.width) + "x" +
                           std::to_string(vertices.height) + ", the tracker was made for " +
                           std::to_string(k.width) + "x" + std::to_string(k.height));
   }
-  const auto pyramid = build_map_pyramid(vertices, normals, config_.levels, config_.max_jump_fraction);
+  const auto pyramid =
+      build_map_pyramid(vertices, normals, config_.levels, config_.max_jump_fraction);
   for (std::size_t l = 0; l < pyramid.size(); ++l) {
     const auto bytes = pyramid[l].vertices.data.size() * sizeof(Eigen::Vector4f);
     IMUFUSION_RETURN_IF_ERROR(vertices_[l].upload(pyramid[l].vertices.data.data(), bytes));
@@ -131,7 +138,8 @@ Status Preprocessor::upload_maps(const Vec4Image& vertices, const Vec4Image& nor
 }
 
 std::uint32_t Preprocessor::dispatch_count() const {
-  return 2 + static_cast<std::uint32_t>(config_.levels - 1) + 2 * static_cast<std::uint32_t>(config_.levels);
+  return 2 + static_cast<std::uint32_t>(config_.levels - 1) +
+         2 * static_cast<std::uint32_t>(config_.levels);
 }
 
 void Preprocessor::record(CommandSequence& seq) const {
@@ -145,7 +153,8 @@ void Preprocessor::record(CommandSequence& seq) const {
   const float sd = config_.bilateral_sigma_depth;
   const layout::BilateralParams bilateral{w0, h0, config_.bilateral_radius, 1.0f / (2 * ss * ss),
                                           1.0f / (2 * sd * sd)};
-  seq.dispatch(bilateral_, {&raw_metres_, &depth_[0]}, bilateral, w0, h0, level_label("bilateral", 0));
+  seq.dispatch(bilateral_, {&raw_metres_, &depth_[0]}, bilateral, w0, h0,
+               level_label("bilateral", 0));
   for (int level = 1; level < config_.levels; ++level) {
     const Intrinsics& src = levels_[static_cast<std::size_t>(level - 1)];
     const Intrinsics& dst = levels_[static_cast<std::size_t>(level)];
@@ -153,19 +162,27 @@ void Preprocessor::record(CommandSequence& seq) const {
         static_cast<std::uint32_t>(src.width), static_cast<std::uint32_t>(src.height),
         static_cast<std::uint32_t>(dst.width), static_cast<std::uint32_t>(dst.height),
         config_.max_jump_fraction};
-    seq.dispatch(pyramid_down_, {&depth_[static_cast<std::size_t>(level - 1)], &depth_[static_cast<std::size_t>(level)]},
-                 down, down.dst_width, down.dst_height, level_label("pyramid_down", level));
+    seq.dispatch(
+        pyramid_down_,
+        {&depth_[static_cast<std::size_t>(level - 1)], &depth_[static_cast<std::size_t>(level)]},
+        down, down.dst_width, down.dst_height, level_label("pyramid_down", level));
   }
   for (int level = 0; level < config_.levels; ++level) {
     const auto l = static_cast<std::size_t>(level);
     const Intrinsics& k = levels_[l];
     const auto w = static_cast<std::uint32_t>(k.width);
     const auto h = static_cast<std::uint32_t>(k.height);
-    const layout::VertexMapParams vp{w, h, static_cast<float>(k.fx), static_cast<float>(k.fy),
-                                     static_cast<float>(k.cx), static_cast<float>(k.cy)};
-    seq.dispatch(vertex_map_, {&depth_[l], &vertices_[l]}, vp, w, h, level_label("vertex_map", level));
+    const layout::VertexMapParams vp{w,
+                                     h,
+                                     static_cast<float>(k.fx),
+                                     static_cast<float>(k.fy),
+                                     static_cast<float>(k.cx),
+                                     static_cast<float>(k.cy)};
+    seq.dispatch(vertex_map_, {&depth_[l], &vertices_[l]}, vp, w, h,
+                 level_label("vertex_map", level));
     const layout::NormalMapParams np{w, h, config_.max_jump_fraction};
-    seq.dispatch(normal_map_, {&vertices_[l], &normals_[l]}, np, w, h, level_label("normal_map", level));
+    seq.dispatch(normal_map_, {&vertices_[l], &normals_[l]}, np, w, h,
+                 level_label("normal_map", level));
   }
 }
 
@@ -212,7 +229,8 @@ Result<DepthPreprocessor> DepthPreprocessor::create(const PreprocessConfig& conf
   if (!kernels) return kernels.error();
   auto seq = gpu::CommandSequence::create(*context, kernels->dispatch_count());
   if (!seq) return seq.error();
-  auto impl = std::make_unique<Impl>(Impl{std::move(*context), std::move(*kernels), std::move(*seq)});
+  auto impl =
+      std::make_unique<Impl>(Impl{std::move(*context), std::move(*kernels), std::move(*seq)});
   return DepthPreprocessor(std::move(impl));
 }
 

@@ -5,11 +5,11 @@
 #include <memory>
 #include <vector>
 
+#include "imufusion/preprocess.hpp"
 #include "vk/buffer.hpp"
 #include "vk/command_sequence.hpp"
 #include "vk/context.hpp"
 #include "vk/pipeline.hpp"
-#include "imufusion/preprocess.hpp"
 
 namespace imufusion::gpu {
 

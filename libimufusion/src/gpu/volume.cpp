@@ -37,13 +37,17 @@ Status check_config(const VolumeConfig& c, const VkPhysicalDeviceLimits& limits)
   if (!(c.truncation_voxels >= 1.0f)) return bad("truncation must be at least one voxel");
   if (c.max_weight < 1 || c.max_weight > 65535) return bad("max_weight must be 1..65535");
   if (c.block_capacity == 0) return bad("block capacity must be positive");
-  if (c.hash_slots < 2 || (c.hash_slots & (c.hash_slots - 1)) != 0 || c.hash_slots < c.block_capacity)
-    return bad("hash_slots must be a power of two >= block_capacity, got " + std::to_string(c.hash_slots));
+  if (c.hash_slots < 2 || (c.hash_slots & (c.hash_slots - 1)) != 0 ||
+      c.hash_slots < c.block_capacity)
+    return bad("hash_slots must be a power of two >= block_capacity, got " +
+               std::to_string(c.hash_slots));
   // Each voxel array (4 bytes per voxel) is one storage-buffer binding.
   const std::uint64_t pool_bytes = std::uint64_t{c.block_capacity} * kBlockVoxels * 4;
-  if (pool_bytes > limits.maxStorageBufferRange || std::uint64_t{c.hash_slots} * 4 > limits.maxStorageBufferRange) {
+  if (pool_bytes > limits.maxStorageBufferRange ||
+      std::uint64_t{c.hash_slots} * 4 > limits.maxStorageBufferRange) {
     return bad("block capacity " + std::to_string(c.block_capacity) + " needs voxel arrays of " +
-               std::to_string(pool_bytes >> 20) + " MiB, beyond this device's storage-buffer range of " +
+               std::to_string(pool_bytes >> 20) +
+               " MiB, beyond this device's storage-buffer range of " +
                std::to_string(limits.maxStorageBufferRange >> 20) + " MiB (at most " +
                std::to_string(limits.maxStorageBufferRange / (kBlockVoxels * 4)) + " blocks)");
   }
@@ -58,18 +62,22 @@ Result<TsdfVolume> TsdfVolume::create(std::shared_ptr<Context> context, const Vo
   TsdfVolume v;
   v.context_ = context;
   v.config_ = config;
-  const auto wx = static_cast<std::uint32_t>(workgroup_x), wy = static_cast<std::uint32_t>(workgroup_y);
+  const auto wx = static_cast<std::uint32_t>(workgroup_x),
+             wy = static_cast<std::uint32_t>(workgroup_y);
   auto make = [&](PipelineDesc desc, ComputePipeline& out) -> Status {
     auto pipeline = ComputePipeline::create(context, desc);
     if (!pipeline) return pipeline.error();
     out = std::move(*pipeline);
     return {};
   };
-  IMUFUSION_RETURN_IF_ERROR(make({"volume_allocate", 7, sizeof(layout::VolumeAllocateParams), wx, wy}, v.allocate_));
-  IMUFUSION_RETURN_IF_ERROR(make({"volume_integrate", 8, sizeof(layout::VolumeIntegrateParams), 8, 8}, v.integrate_));
   IMUFUSION_RETURN_IF_ERROR(
-      make({"volume_raycast_range", 4, sizeof(layout::VolumeRangeParams), 64, 1}, v.range_pipeline_));
-  IMUFUSION_RETURN_IF_ERROR(make({"volume_raycast", 10, sizeof(layout::VolumeRaycastParams), wx, wy}, v.raycast_));
+      make({"volume_allocate", 7, sizeof(layout::VolumeAllocateParams), wx, wy}, v.allocate_));
+  IMUFUSION_RETURN_IF_ERROR(
+      make({"volume_integrate", 8, sizeof(layout::VolumeIntegrateParams), 8, 8}, v.integrate_));
+  IMUFUSION_RETURN_IF_ERROR(make(
+      {"volume_raycast_range", 4, sizeof(layout::VolumeRangeParams), 64, 1}, v.range_pipeline_));
+  IMUFUSION_RETURN_IF_ERROR(
+      make({"volume_raycast", 10, sizeof(layout::VolumeRaycastParams), wx, wy}, v.raycast_));
   auto alloc = [&](std::size_t bytes, Buffer& out) -> Status {
     auto buffer = Buffer::create(context, bytes);
     if (!buffer) return buffer.error();
@@ -84,8 +92,10 @@ Result<TsdfVolume> TsdfVolume::create(std::shared_ptr<Context> context, const Vo
   IMUFUSION_RETURN_IF_ERROR(alloc(slots * 4, v.visible_));
   IMUFUSION_RETURN_IF_ERROR(alloc(VOLUME_COUNTERS * 4, v.counters_));
   IMUFUSION_RETURN_IF_ERROR(alloc(std::size_t{config.block_capacity} * 4, v.block_slots_));
-  IMUFUSION_RETURN_IF_ERROR(alloc(std::size_t{config.block_capacity} * kBlockVoxels * 4, v.tsdf_weight_));
-  IMUFUSION_RETURN_IF_ERROR(alloc(std::size_t{config.block_capacity} * kBlockVoxels * 4, v.voxel_colors_));
+  IMUFUSION_RETURN_IF_ERROR(
+      alloc(std::size_t{config.block_capacity} * kBlockVoxels * 4, v.tsdf_weight_));
+  IMUFUSION_RETURN_IF_ERROR(
+      alloc(std::size_t{config.block_capacity} * kBlockVoxels * 4, v.voxel_colors_));
   IMUFUSION_RETURN_IF_ERROR(alloc(4, v.no_color_));
   auto seq = CommandSequence::create(context, 2);
   if (!seq) return seq.error();
@@ -135,8 +145,9 @@ Result<IntegrationStats> TsdfVolume::integrate(const Buffer& depth, const Buffer
   ap.block_capacity = config_.block_capacity;
   ap.frame_stamp = frame_stamp_;
   IMUFUSION_RETURN_IF_ERROR(seq_.begin());
-  seq_.dispatch(allocate_, {&depth, &keys_, &values_, &stamps_, &visible_, &counters_, &block_slots_},
-                ap, ap.width, ap.height, "volume_allocate");
+  seq_.dispatch(allocate_,
+                {&depth, &keys_, &values_, &stamps_, &visible_, &counters_, &block_slots_}, ap,
+                ap.width, ap.height, "volume_allocate");
   auto t1 = seq_.submit_and_wait();
   if (!t1) return t1.error();
   if (timings != nullptr) timings->insert(timings->end(), t1->begin(), t1->end());
@@ -207,8 +218,8 @@ Status TsdfVolume::raycast(const Intrinsics& k, const Eigen::Isometry3d& T_world
                   "volume_raycast_range");
   }
   seq_.dispatch(raycast_,
-                {&keys_, &values_, &tsdf_weight_, &voxel_colors_, &vertices, &normals, &shaded, &colors,
-                 &range_, &steps_},
+                {&keys_, &values_, &tsdf_weight_, &voxel_colors_, &vertices, &normals, &shaded,
+                 &colors, &range_, &steps_},
                 rp, rp.width, rp.height, "volume_raycast");
   auto t = seq_.submit_and_wait();
   if (!t) return t.error();
@@ -262,7 +273,8 @@ Result<HostVolume> TsdfVolume::snapshot() const {
       Voxel& voxel = b.voxels[static_cast<std::size_t>(v)];
       voxel.tsdf = static_cast<float>(static_cast<std::int16_t>(word0 & 0xFFFFu)) / 32767.0f;
       voxel.weight = static_cast<float>(word0 >> 16);
-      voxel.color = {static_cast<std::uint8_t>(word1 & 0xFF), static_cast<std::uint8_t>((word1 >> 8) & 0xFF),
+      voxel.color = {static_cast<std::uint8_t>(word1 & 0xFF),
+                     static_cast<std::uint8_t>((word1 >> 8) & 0xFF),
                      static_cast<std::uint8_t>((word1 >> 16) & 0xFF)};
     }
     host.blocks.push_back(std::move(b));

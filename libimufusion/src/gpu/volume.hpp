@@ -5,12 +5,12 @@
 #include <memory>
 #include <optional>
 
+#include "imufusion/fusion.hpp"
+#include "imufusion/volume.hpp"
 #include "vk/buffer.hpp"
 #include "vk/command_sequence.hpp"
 #include "vk/context.hpp"
 #include "vk/pipeline.hpp"
-#include "imufusion/fusion.hpp"
-#include "imufusion/volume.hpp"
 
 namespace imufusion::gpu {
 

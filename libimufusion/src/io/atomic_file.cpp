@@ -80,8 +80,7 @@ std::size_t remove_stale_temporaries(const fs::path& directory) {
   return removed;
 }
 
-Status write_file_atomically(const fs::path& path,
-                             const std::function<Status(std::FILE*)>& write) {
+Status write_file_atomically(const fs::path& path, const std::function<Status(std::FILE*)>& write) {
   clean_directory_once(path.parent_path());
   fs::path temp;
   std::FILE* file = nullptr;
@@ -134,7 +133,8 @@ Result<std::vector<std::uint8_t>> read_file_bytes(const fs::path& path, std::uin
   }
   struct stat st {};
   if (::fstat(fd, &st) != 0) {
-    Error error = make_error(ErrorCode::kIoError, "cannot stat " + path.string() + ": " + errno_text());
+    Error error =
+        make_error(ErrorCode::kIoError, "cannot stat " + path.string() + ": " + errno_text());
     ::close(fd);
     return error;
   }
@@ -149,9 +149,9 @@ Result<std::vector<std::uint8_t>> read_file_bytes(const fs::path& path, std::uin
                           "are read");
   }
   const auto too_large = [&] {
-    return make_error(ErrorCode::kInvalidArgument,
-                      path.string() + ": larger than the " + std::to_string(max_bytes) +
-                          "-byte limit for this file");
+    return make_error(ErrorCode::kInvalidArgument, path.string() + ": larger than the " +
+                                                       std::to_string(max_bytes) +
+                                                       "-byte limit for this file");
   };
   if (static_cast<std::uint64_t>(st.st_size) > max_bytes) {
     ::close(fd);
@@ -164,7 +164,8 @@ Result<std::vector<std::uint8_t>> read_file_bytes(const fs::path& path, std::uin
     const ssize_t n = ::read(fd, chunk, sizeof(chunk));
     if (n < 0 && errno == EINTR) continue;
     if (n < 0) {
-      Error error = make_error(ErrorCode::kIoError, "cannot read " + path.string() + ": " + errno_text());
+      Error error =
+          make_error(ErrorCode::kIoError, "cannot read " + path.string() + ": " + errno_text());
       ::close(fd);
       return error;
     }

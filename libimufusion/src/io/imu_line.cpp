@@ -29,10 +29,20 @@ std::optional<int> to_sensor_id(std::string_view field) {
 // Values following each Sensorstream IMU+GPS sensor id (PreferencesActivity of the app).
 int sensorstream_value_count(int id) {
   switch (id) {
-    case 1: case 3: case 4: case 5: case 6: case 7:
-    case 81: case 82: case 83: case 84:
+    case 1:
+    case 3:
+    case 4:
+    case 5:
+    case 6:
+    case 7:
+    case 81:
+    case 82:
+    case 83:
+    case 84:
       return 3;
-    case 8: case 87: case 88:
+    case 8:
+    case 87:
+    case 88:
       return 1;
     case 85:
       return 9;
@@ -97,8 +107,7 @@ ImuLineKind parse_imu_txt(const std::vector<std::string>& fields, ImuSample* sam
 }  // namespace
 
 double host_clock_now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
 ImuLineKind parse_imu_line(std::string_view line, ImuSample* sample) {

@@ -125,7 +125,8 @@ Result<ImuUdpListener> ImuUdpListener::open(const ImuUdpOptions& options) {
   state->socket = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
   const std::string endpoint = options.address + ":" + std::to_string(options.port);
   if (state->socket < 0) {
-    return make_error(ErrorCode::kIoError, system_error(("IMU UDP " + endpoint + ": socket").c_str()));
+    return make_error(ErrorCode::kIoError,
+                      system_error(("IMU UDP " + endpoint + ": socket").c_str()));
   }
   // A 200 Hz stream fills 64 KiB in well under a second only if the thread stalls; ask for
   // 1 MiB so scheduling hiccups drop nothing (the kernel may grant less).

@@ -30,8 +30,8 @@ int g_openni_users = 0;
 std::string openni_error() {
   const char* text = openni::OpenNI::getExtendedError();
   std::string message = text != nullptr ? text : "";
-  while (!message.empty() && (message.back() == '\n' || message.back() == ' ' ||
-                              message.back() == '\t')) {
+  while (!message.empty() &&
+         (message.back() == '\n' || message.back() == ' ' || message.back() == '\t')) {
     message.pop_back();
   }
   // OpenNI prefixes its messages with a tab.
@@ -65,8 +65,8 @@ bool set_mode(openni::VideoStream& stream, const openni::VideoMode& mode) {
 }
 
 std::string describe_mode(const openni::VideoMode& mode) {
-  return std::to_string(mode.getResolutionX()) + "x" + std::to_string(mode.getResolutionY()) +
-         "@" + std::to_string(mode.getFps());
+  return std::to_string(mode.getResolutionX()) + "x" + std::to_string(mode.getResolutionY()) + "@" +
+         std::to_string(mode.getFps());
 }
 
 // Raw depth units per metre of an OpenNI2 depth pixel format; 0 for a format that is not depth.
@@ -179,11 +179,11 @@ Status OpenNI2Source::choose_depth_mode() {
       best = i;
     }
   }
-  const std::string wanted = std::to_string(want.width) + "x" + std::to_string(want.height) +
-                             "@" + std::to_string(want.fps);
+  const std::string wanted = std::to_string(want.width) + "x" + std::to_string(want.height) + "@" +
+                             std::to_string(want.fps);
   if (best < 0) {
-    return make_error(ErrorCode::kUnsupported, name_ + ": the camera has no depth mode " +
-                                                   wanted + " (it has: " + available + ")");
+    return make_error(ErrorCode::kUnsupported, name_ + ": the camera has no depth mode " + wanted +
+                                                   " (it has: " + available + ")");
   }
   if (!set_mode(depth_, modes[best])) {
     return make_error(ErrorCode::kIoError,
@@ -271,15 +271,15 @@ Status OpenNI2Source::set_intrinsics(const openni::VideoMode& mode) {
 Status OpenNI2Source::open() {
   IMUFUSION_RETURN_IF_ERROR(acquire_openni());
   acquired_ = true;
-  const std::string uri =
-      is_file_ ? name_ : name_.substr(std::string_view("openni2://").size());
+  const std::string uri = is_file_ ? name_ : name_.substr(std::string_view("openni2://").size());
   if (!is_file_ && uri.empty()) {
     openni::Array<openni::DeviceInfo> devices;
     openni::OpenNI::enumerateDevices(&devices);
     if (devices.getSize() == 0) {
       return make_error(ErrorCode::kNoDevice,
-                        name_ + ": no OpenNI2 camera found (is it plugged in, and is its "
-                                "driver installed, e.g. PS1080 for Kinect v1 / Xtion?)");
+                        name_ +
+                            ": no OpenNI2 camera found (is it plugged in, and is its "
+                            "driver installed, e.g. PS1080 for Kinect v1 / Xtion?)");
     }
   }
   if (device_.open(uri.empty() ? openni::ANY_DEVICE : uri.c_str()) != openni::STATUS_OK) {
@@ -291,8 +291,8 @@ Status OpenNI2Source::open() {
   }
   const openni::DeviceInfo& info = device_.getDeviceInfo();
   description_ = is_file_ ? name_
-                          : "openni2://" + std::string(info.getUri()) + " (" +
-                                info.getVendor() + " " + info.getName() + ")";
+                          : "openni2://" + std::string(info.getUri()) + " (" + info.getVendor() +
+                                " " + info.getName() + ")";
   if (!device_.hasSensor(openni::SENSOR_DEPTH) ||
       depth_.create(device_, openni::SENSOR_DEPTH) != openni::STATUS_OK) {
     return make_error(is_file_ ? ErrorCode::kParseError : ErrorCode::kUnsupported,
@@ -307,9 +307,9 @@ Status OpenNI2Source::open() {
   }
   const openni::VideoMode mode = depth_.getVideoMode();
   if (depth_scale_of(mode.getPixelFormat()) == 0.0) {
-    return make_error(ErrorCode::kUnsupported,
-                      name_ + ": depth pixel format " + std::to_string(mode.getPixelFormat()) +
-                          " is neither 1 mm nor 100 um");
+    return make_error(ErrorCode::kUnsupported, name_ + ": depth pixel format " +
+                                                   std::to_string(mode.getPixelFormat()) +
+                                                   " is neither 1 mm nor 100 um");
   }
   IMUFUSION_RETURN_IF_ERROR(set_intrinsics(mode));
   if (depth_.start() != openni::STATUS_OK) {
@@ -421,9 +421,9 @@ Result<std::optional<Frame>> OpenNI2Source::next_live() {
     auto ready = wait_for_depth();
     if (!ready.ok()) return ready.error();
     if (!*ready) {
-      return make_error(ErrorCode::kDeviceLost,
-                        description_ + ": no depth frame for " +
-                            std::to_string(options_.frame_timeout) + " s (camera unplugged?)");
+      return make_error(ErrorCode::kDeviceLost, description_ + ": no depth frame for " +
+                                                    std::to_string(options_.frame_timeout) +
+                                                    " s (camera unplugged?)");
     }
     openni::VideoFrameRef ref;
     if (depth_.readFrame(&ref) != openni::STATUS_OK) {
@@ -454,9 +454,9 @@ Result<bool> OpenNI2Source::read_recorded() {
   openni::VideoFrameRef ref;
   if (status != openni::STATUS_OK || ready < 0 || ready >= count ||
       streams[ready]->readFrame(&ref) != openni::STATUS_OK) {
-    return make_error(ErrorCode::kParseError,
-                      name_ + ": reading frame " + std::to_string(depth_read_ + color_read_ + 1) +
-                          " of the recording failed: " + openni_error());
+    return make_error(ErrorCode::kParseError, name_ + ": reading frame " +
+                                                  std::to_string(depth_read_ + color_read_ + 1) +
+                                                  " of the recording failed: " + openni_error());
   }
   if (ready == 0) {
     ++depth_read_;
@@ -472,8 +472,8 @@ void OpenNI2Source::pair_recorded_color(double device_time, Frame* frame) {
   // Colour frames come in file order: read on until one is stamped at or after the depth
   // frame, unless the colour stream has ended or two later depth frames are already queued
   // (colour lagging that far has no closer partner than what was read).
-  while ((color_queue_.empty() || stamp_of(color_queue_.back()) < device_time) &&
-         !color_done() && depth_queue_.size() < 2) {
+  while ((color_queue_.empty() || stamp_of(color_queue_.back()) < device_time) && !color_done() &&
+         depth_queue_.size() < 2) {
     auto more = read_recorded();
     if (!more.ok() || !*more) break;  // the depth stream reports the end or the error
   }
@@ -502,9 +502,9 @@ Result<std::optional<Frame>> OpenNI2Source::next_recorded() {
       if (!more.ok()) return more.error();
       if (!*more) {
         const std::string of = total_frames_ > 0 ? " of " + std::to_string(total_frames_) : "";
-        return make_error(ErrorCode::kParseError,
-                          name_ + ": no depth frame after frame " + std::to_string(depth_read_) +
-                              of + " (truncated recording?)");
+        return make_error(ErrorCode::kParseError, name_ + ": no depth frame after frame " +
+                                                      std::to_string(depth_read_) + of +
+                                                      " (truncated recording?)");
       }
     }
     const openni::VideoFrameRef ref = depth_queue_.front();
@@ -543,8 +543,9 @@ Result<std::unique_ptr<FrameSource>> open_openni2_source(std::string_view uri, b
                                                          const SourceOptions&) {
   const std::string name = is_file ? std::string(uri) : "openni2://" + std::string(uri);
   return make_error(ErrorCode::kUnsupported,
-                    name + ": this build of imufusion has no OpenNI2 support (install "
-                           "libopenni2-dev and reconfigure)");
+                    name +
+                        ": this build of imufusion has no OpenNI2 support (install "
+                        "libopenni2-dev and reconfigure)");
 }
 
 }  // namespace io

@@ -93,7 +93,8 @@ Status OutputSet::commit() {
     const fs::path from = staging_ / name;
     if (!fs::exists(from, ec)) continue;
     fs::rename(from, directory_ / name, ec);
-    if (ec) return io_error("cannot move " + from.string() + " to " + (directory_ / name).string(), ec);
+    if (ec)
+      return io_error("cannot move " + from.string() + " to " + (directory_ / name).string(), ec);
   }
   return {};
 }

@@ -59,7 +59,8 @@ struct SessionRecorder::State {
   // Outside the lock, by the writer's thread (the worker, or finish() once it is joined).
   Status apply(const std::optional<Metadata>& metadata) {
     if (!metadata) return {};
-    if (metadata->intrinsics) IMUFUSION_RETURN_IF_ERROR(writer.set_intrinsics(*metadata->intrinsics));
+    if (metadata->intrinsics)
+      IMUFUSION_RETURN_IF_ERROR(writer.set_intrinsics(*metadata->intrinsics));
     if (metadata->T_camera_imu) {
       IMUFUSION_RETURN_IF_ERROR(writer.set_T_camera_imu(*metadata->T_camera_imu));
     }
@@ -172,8 +173,8 @@ bool SessionRecorder::push_frame(Frame frame) {
 void SessionRecorder::push_imu(const std::vector<ImuSample>& samples) {
   std::lock_guard lock(state_->mutex);
   for (const ImuSample& sample : samples) {
-    const bool finite = std::isfinite(sample.timestamp) && sample.gyro.allFinite() &&
-                        sample.accel.allFinite();
+    const bool finite =
+        std::isfinite(sample.timestamp) && sample.gyro.allFinite() && sample.accel.allFinite();
     if (!finite || (!state_->imu.empty() && !(sample.timestamp > state_->imu.back().timestamp))) {
       ++state_->stats.imu_dropped;
       continue;

@@ -30,8 +30,11 @@ double median_of(std::vector<float> values) {
 }  // namespace
 
 std::string frames_csv_header() {
-  return "timestamp,status,pose_source,icp_iterations,residual,inliers,weight_sum,condition,fused,ms,"
-         "icp_reliable,icp_reason,icp_directions,imu_disagreement,imu_chi2,imu_agreed,inlier_fraction,pixel_fraction,relocalized,recovery_restarted,imu_rotation,imu_coverage,gyro_bias_x,gyro_bias_y,gyro_bias_z,"
+  return "timestamp,status,pose_source,icp_iterations,residual,inliers,weight_sum,condition,fused,"
+         "ms,"
+         "icp_reliable,icp_reason,icp_directions,imu_disagreement,imu_chi2,imu_agreed,inlier_"
+         "fraction,pixel_fraction,relocalized,recovery_restarted,imu_rotation,imu_coverage,gyro_"
+         "bias_x,gyro_bias_y,gyro_bias_z,"
          "R_camera_imu_estimated,R_camera_imu_sigma_deg,blocks,pool_full,tx,ty,tz,qx,qy,qz,qw";
 }
 
@@ -40,24 +43,28 @@ std::string frames_csv_row(const FrameResult& f, std::uint32_t allocated_blocks)
   row += std::string(",") + to_string(f.status) + "," + to_string(f.source) + ",";
   if (f.icp_ran) {
     const IcpQuality& q = f.icp.quality;
-    row += std::to_string(q.iterations) + "," + format("%.6g", q.residual) + "," + std::to_string(q.inliers) +
-           "," + format("%.6g", q.weight_sum) + "," + format("%.6g", q.condition);
+    row += std::to_string(q.iterations) + "," + format("%.6g", q.residual) + "," +
+           std::to_string(q.inliers) + "," + format("%.6g", q.weight_sum) + "," +
+           format("%.6g", q.condition);
   } else {
     row += ",,,,";
   }
   row += std::string(",") + (f.fused ? "1" : "0") + "," + format("%.2f", f.timings.total_ms) + ",";
-  row += f.icp_ran ? std::string(f.icp.reliable() ? "1" : "0") + "," + csv_field(f.icp.reason) + "," +
-                         std::to_string(f.icp.quality.constrained_directions) + "," +
+  row += f.icp_ran ? std::string(f.icp.reliable() ? "1" : "0") + "," + csv_field(f.icp.reason) +
+                         "," + std::to_string(f.icp.quality.constrained_directions) + "," +
                          format("%.3g", f.icp.quality.seed_disagreement) + "," +
-                         format("%.3g", f.icp.quality.seed_chi2) + "," + (f.icp.quality.agreed_with_seed ? "1" : "0") +
-                         "," + format("%.3f", f.icp.quality.inlier_fraction) + "," +
+                         format("%.3g", f.icp.quality.seed_chi2) + "," +
+                         (f.icp.quality.agreed_with_seed ? "1" : "0") + "," +
+                         format("%.3f", f.icp.quality.inlier_fraction) + "," +
                          format("%.3f", f.icp.quality.pixel_fraction)
                    : std::string(",,,,,,,");
   row += std::string(",") + (f.relocalized ? "1" : "0") + "," + (f.recovery_restarted ? "1" : "0");
-  row += std::string(",") + (f.imu.rotation_from_imu ? "1" : "0") + "," + format("%.3f", f.imu.covered_fraction);
+  row += std::string(",") + (f.imu.rotation_from_imu ? "1" : "0") + "," +
+         format("%.3f", f.imu.covered_fraction);
   for (int i = 0; i < 3; ++i) row += "," + format("%.6g", f.inertial.gyro_bias[i]);
   row += std::string(",") + (f.inertial.R_camera_imu_estimated ? "1" : "0") + "," +
-         format("%.4g", f.inertial.R_camera_imu_sigma_deg) + "," + std::to_string(allocated_blocks) + "," +
+         format("%.4g", f.inertial.R_camera_imu_sigma_deg) + "," +
+         std::to_string(allocated_blocks) + "," +
          std::to_string(f.fused ? f.integration.pool_full : 0u);
   const Eigen::Vector3d t = f.T_world_camera.translation();
   const Eigen::Quaterniond q(f.T_world_camera.linear());
@@ -80,7 +87,8 @@ void ScanSummary::add(const FrameResult& f) {
     ++s.broken_recoveries;
   previous_status_ = f.status;
   s.retracked += f.retracked;
-  if (f.fused && f.integration.pool_full > 0 && s.pool_full_frames++ == 0) s.first_pool_full_frame = i;
+  if (f.fused && f.integration.pool_full > 0 && s.pool_full_frames++ == 0)
+    s.first_pool_full_frame = i;
   if (f.icp_ran) iterations_.push_back(static_cast<float>(f.icp.quality.iterations));
   if (f.icp_ran && f.status == TrackingStatus::kTracking)
     tracking_iterations_.push_back(static_cast<float>(f.icp.quality.iterations));
@@ -106,7 +114,8 @@ ScanStatistics ScanSummary::statistics() const {
     s.mean_icp_iterations /= static_cast<double>(iterations_.size());
     s.median_icp_iterations = median_of(iterations_);
   }
-  if (!tracking_iterations_.empty()) s.median_icp_iterations_tracking = median_of(tracking_iterations_);
+  if (!tracking_iterations_.empty())
+    s.median_icp_iterations_tracking = median_of(tracking_iterations_);
   if (!ms_.empty()) {
     s.mean_frame_ms = total_ms_ / static_cast<double>(ms_.size());
     s.median_frame_ms = median_of(ms_);

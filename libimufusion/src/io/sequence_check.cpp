@@ -85,18 +85,17 @@ void check_imu(SequenceCheck& check, const std::vector<double>& depth_stamps) {
   if (info.imu_implausible > 0 || info.imu_time_jumps > 0) {
     check.warnings.push_back("imu.txt: " + std::to_string(info.imu_implausible) +
                              " samples beyond a real IMU's range (or not finite) and " +
-                             std::to_string(info.imu_time_jumps) +
-                             " jumps in time are left out");
+                             std::to_string(info.imu_time_jumps) + " jumps in time are left out");
   }
   if (depth_stamps.empty()) return;
   check.frames_within_imu = frames_within_imu(info.imu, depth_stamps);
   if (check.frames_within_imu == 0) {
     check.warnings.push_back(
         "imu.txt covers none of the depth frames" +
-        (stamps.empty() ? std::string(" (no usable sample)")
-                        : " (" + seconds(stamps.front()) + " .. " + seconds(stamps.back()) +
-                              " against " + seconds(depth_stamps.front()) + " .. " +
-                              seconds(depth_stamps.back()) + ")") +
+        (stamps.empty()
+             ? std::string(" (no usable sample)")
+             : " (" + seconds(stamps.front()) + " .. " + seconds(stamps.back()) + " against " +
+                   seconds(depth_stamps.front()) + " .. " + seconds(depth_stamps.back()) + ")") +
         ": the scan will run without the IMU");
     return;
   }

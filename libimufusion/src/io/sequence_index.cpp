@@ -279,9 +279,9 @@ class Loader {
       if (!(a.centre >= 0 && a.centre <= a.pixels)) {
         add(make_error(ErrorCode::kInvalidArgument,
                        source + a.centre_name + " " + format_exact(a.centre) +
-                           " lies outside the image (" + a.extent + " " +
-                           std::to_string(a.pixels) + " pixels): the principal point must be " +
-                           "on the image, in [0, " + std::to_string(a.pixels) + "]"));
+                           " lies outside the image (" + a.extent + " " + std::to_string(a.pixels) +
+                           " pixels): the principal point must be " + "on the image, in [0, " +
+                           std::to_string(a.pixels) + "]"));
       }
     }
   }

@@ -88,7 +88,7 @@ struct SequenceWriter::State {
   int width = 0, height = 0;
   double depth_scale = 0;
   io::LineAppender depth_log, color_log, imu_log;  // write_as_you_go only
-  bool imu_forgotten = false;              // forget_imu() stopped appending to imu.txt
+  bool imu_forgotten = false;                      // forget_imu() stopped appending to imu.txt
 
   // info.txt: the values derived from the depth images, then the caller's keys in order.
   Result<std::string> info_text() const;

@@ -8,8 +8,8 @@ namespace imufusion::reference {
 std::vector<IcpRow> icp_associate(const Vec4Image& cur_vertices, const Vec4Image& cur_normals,
                                   const Vec4Image& ref_vertices, const Vec4Image& ref_normals,
                                   const Intrinsics& k, const Eigen::Isometry3d& T_ref_cur,
-                                  double max_distance, double min_normal_cos, const DepthNoiseModel& noise,
-                                  const NormalGate& gate) {
+                                  double max_distance, double min_normal_cos,
+                                  const DepthNoiseModel& noise, const NormalGate& gate) {
   const double max_noise_cos = std::cos(gate.max_angle_deg * M_PI / 180.0);
   std::vector<IcpRow> rows(cur_vertices.data.size());
   for (std::size_t i = 0; i < rows.size(); ++i) {
@@ -32,7 +32,8 @@ std::vector<IcpRow> icp_associate(const Vec4Image& cur_vertices, const Vec4Image
     const double dist = (p - q).norm();
     const double cosine = m.dot(g);
     const double tan_noise = gate.noise_k * noise.sigma(v.z()) * k.fx / v.z();
-    const double min_cos = std::min(min_normal_cos, std::max(1.0 / std::sqrt(1.0 + tan_noise * tan_noise), max_noise_cos));
+    const double min_cos = std::min(
+        min_normal_cos, std::max(1.0 / std::sqrt(1.0 + tan_noise * tan_noise), max_noise_cos));
     if (dist > max_distance || cosine < min_cos) continue;
     IcpRow& row = rows[i];
     row.a << p.cross(g), g;
@@ -63,9 +64,13 @@ NormalEquations icp_reduce(const std::vector<IcpRow>& rows, const DepthNoiseMode
 CpuNormalEquationSource::CpuNormalEquationSource(PreprocessedFrame reference,
                                                  PreprocessedFrame current,
                                                  const Intrinsics& intrinsics,
-                                                 const DepthNoiseModel& noise, const NormalGate& gate)
-    : reference_(std::move(reference)), current_(std::move(current)), intrinsics_(intrinsics),
-      noise_(noise), gate_(gate) {}
+                                                 const DepthNoiseModel& noise,
+                                                 const NormalGate& gate)
+    : reference_(std::move(reference)),
+      current_(std::move(current)),
+      intrinsics_(intrinsics),
+      noise_(noise),
+      gate_(gate) {}
 
 Result<NormalEquations> CpuNormalEquationSource::evaluate(int level,
                                                           const Eigen::Isometry3d& T_ref_cur,

@@ -1,11 +1,11 @@
 #include "reference/volume_reference.hpp"
 
-#include "volume_raycast_rule.h"
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <set>
+
+#include "volume_raycast_rule.h"
 
 namespace imufusion::reference {
 namespace {

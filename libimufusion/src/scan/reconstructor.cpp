@@ -7,8 +7,8 @@
 #include <string>
 #include <utility>
 
-#include "scan/reconstructor_impl.hpp"
 #include "gpu/rgba.hpp"
+#include "scan/reconstructor_impl.hpp"
 
 namespace imufusion {
 
@@ -18,21 +18,24 @@ Status Reconstructor::Impl::check_frame(double timestamp, const DepthImage& dept
   if (depth.width != k.width || depth.height != k.height ||
       depth.data.size() != static_cast<std::size_t>(k.width) * k.height)
     return make_error(ErrorCode::kInvalidArgument,
-                      "depth frame at t=" + std::to_string(timestamp) + " is " + std::to_string(depth.width) +
-                          "x" + std::to_string(depth.height) + ", the reconstructor was made for " +
-                          std::to_string(k.width) + "x" + std::to_string(k.height));
+                      "depth frame at t=" + std::to_string(timestamp) + " is " +
+                          std::to_string(depth.width) + "x" + std::to_string(depth.height) +
+                          ", the reconstructor was made for " + std::to_string(k.width) + "x" +
+                          std::to_string(k.height));
   if (rgb != nullptr && (rgb->width != depth.width || rgb->height != depth.height ||
                          rgb->data.size() != depth.data.size() * 3))
     return make_error(ErrorCode::kInvalidArgument,
-                      "colour frame at t=" + std::to_string(timestamp) + " is " + std::to_string(rgb->width) +
-                          "x" + std::to_string(rgb->height) + ", the depth frame " +
-                          std::to_string(depth.width) + "x" + std::to_string(depth.height));
+                      "colour frame at t=" + std::to_string(timestamp) + " is " +
+                          std::to_string(rgb->width) + "x" + std::to_string(rgb->height) +
+                          ", the depth frame " + std::to_string(depth.width) + "x" +
+                          std::to_string(depth.height));
   if (!std::isfinite(timestamp))
-    return make_error(ErrorCode::kInvalidArgument, "frame timestamp " + std::to_string(timestamp) + " is not finite");
-  if (!trajectory.empty() && !(timestamp > trajectory.back().timestamp))
     return make_error(ErrorCode::kInvalidArgument,
-                      "frame timestamp " + std::to_string(timestamp) + " does not follow the previous frame's " +
-                          std::to_string(trajectory.back().timestamp));
+                      "frame timestamp " + std::to_string(timestamp) + " is not finite");
+  if (!trajectory.empty() && !(timestamp > trajectory.back().timestamp))
+    return make_error(ErrorCode::kInvalidArgument, "frame timestamp " + std::to_string(timestamp) +
+                                                       " does not follow the previous frame's " +
+                                                       std::to_string(trajectory.back().timestamp));
   return {};
 }
 
@@ -76,7 +79,8 @@ Status Reconstructor::Impl::update_reference(const Eigen::Isometry3d& T_world_ca
                                              FrameTimings& timings) {
   const auto t0 = Clock::now();
   const Intrinsics& k = config.intrinsics;
-  IMUFUSION_RETURN_IF_ERROR(raycast_model(k, T_world_camera, depth_range(), model, &timings.kernels));
+  IMUFUSION_RETURN_IF_ERROR(
+      raycast_model(k, T_world_camera, depth_range(), model, &timings.kernels));
   auto vertices = download_map(model.vertices, k.width, k.height);
   if (!vertices) return vertices.error();
   auto normals = download_map(model.normals, k.width, k.height);
@@ -92,17 +96,20 @@ Status Reconstructor::Impl::update_reference(const Eigen::Isometry3d& T_world_ca
 // this sensor and scene pairs, the pairing reference until tracked frames replace it.
 Status Reconstructor::Impl::pair_with_own_model(FrameTimings& timings) {
   gpu::GpuNormalEquationSource source(icp_kernels, icp_seq, current, reference, &timings.kernels);
-  const float min_cos = static_cast<float>(std::cos(config.icp.max_normal_angle_deg[0] * M_PI / 180.0));
+  const float min_cos =
+      static_cast<float>(std::cos(config.icp.max_normal_angle_deg[0] * M_PI / 180.0));
   auto eq = source.evaluate(0, Eigen::Isometry3d::Identity(), config.icp.max_distance[0], min_cos);
   if (!eq) return eq.error();
-  if (eq->valid_pixels > 0 && eq->valid_information > 0) pairing.add(eq->inlier_fraction(), eq->pixel_fraction());
+  if (eq->valid_pixels > 0 && eq->valid_information > 0)
+    pairing.add(eq->inlier_fraction(), eq->pixel_fraction());
   return {};
 }
 
 std::size_t Reconstructor::Impl::valid_depth_pixels(const DepthImage& depth) const {
   const double scale = 1.0 / depth.depth_scale;
-  return static_cast<std::size_t>(std::count_if(depth.data.begin(), depth.data.end(),
-                                                [&](std::uint16_t raw) { return valid_depth(raw, raw * scale); }));
+  return static_cast<std::size_t>(
+      std::count_if(depth.data.begin(), depth.data.end(),
+                    [&](std::uint16_t raw) { return valid_depth(raw, raw * scale); }));
 }
 
 // Mean sigma(z)^2 over the frame's valid depths (m^2).
@@ -132,7 +139,8 @@ IcpReliabilityThresholds Reconstructor::Impl::reliability(const DepthImage& dept
 // The coarsest pyramid level ICP needs from an inertial seed (ReconstructorConfig::
 // imu.seed_reach_pixels): the finest level at which 3 sigma of the seed's image motion, at
 // the frame's median depth, is within the reach.
-int Reconstructor::Impl::seed_start_level(const MotionPrediction& prediction, const DepthImage& depth) const {
+int Reconstructor::Impl::seed_start_level(const MotionPrediction& prediction,
+                                          const DepthImage& depth) const {
   const int coarsest = config.preprocess.levels - 1;
   const double reach = config.imu.seed_reach_pixels;
   std::vector<double> z;
@@ -144,7 +152,8 @@ int Reconstructor::Impl::seed_start_level(const MotionPrediction& prediction, co
   if (z.empty()) return coarsest;
   std::nth_element(z.begin(), z.begin() + static_cast<std::ptrdiff_t>(z.size() / 2), z.end());
   const double f = std::max(config.intrinsics.fx, config.intrinsics.fy);
-  const double motion = 3 * f * (prediction.rotation_sigma + prediction.translation_sigma / z[z.size() / 2]);
+  const double motion =
+      3 * f * (prediction.rotation_sigma + prediction.translation_sigma / z[z.size() / 2]);
   int level = 0;
   while (level < coarsest && motion > reach * std::ldexp(1.0, level)) ++level;
   return level;
@@ -164,7 +173,8 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthImage& depth,
   icp.reliability = reliability(depth);
   // The prediction measures the motion only while tracking: a lost or recovering frame's seed
   // carries the whole drift of dead reckoning, not one frame's prediction error.
-  const bool on_prediction = prediction.rotation_from_imu && prediction.translation_predicted && !settling;
+  const bool on_prediction =
+      prediction.rotation_from_imu && prediction.translation_predicted && !settling;
   // The seed gate also needs a velocity settled by the accelerometer: one from one or two
   // tracked pairs carries their error into the seed.
   icp.seed_gate = config.imu.seed_gate && icp.keep_seed_in_degenerate_directions && on_prediction &&
@@ -176,7 +186,8 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthImage& depth,
     // A translation held from the tracked velocity is a guess, not a measurement: the prior
     // then says only that the device moved no faster than a hand-held one can.
     if (!prediction.translation_inertial && !icp.seed_gate)
-      icp.seed_sigma_translation = std::max(prediction.translation_sigma, config.inertial.max_speed * frame_interval);
+      icp.seed_sigma_translation =
+          std::max(prediction.translation_sigma, config.inertial.max_speed * frame_interval);
     // The agreement test and the prior take the sigmas as off as this scan shows them to be.
     if (!icp.seed_gate) {
       icp.seed_sigma_rotation *= prediction_calibration.scale();
@@ -197,7 +208,8 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthImage& depth,
   const auto settling_budget = [&](IcpConfig c) {
     c.max_total_iterations = std::max(c.max_total_iterations, config.recovery.icp_iterations);
     c.converged_rotation = std::max(c.converged_rotation, config.recovery.converged_rotation);
-    c.converged_translation = std::max(c.converged_translation, config.recovery.converged_translation);
+    c.converged_translation =
+        std::max(c.converged_translation, config.recovery.converged_translation);
     return c;
   };
   if (settling) icp = settling_budget(icp);
@@ -208,8 +220,8 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthImage& depth,
   // settling budget from the same seed before it counts as lost: the tests judge an alignment,
   // not an unfinished one.
   const IcpConfig retry = settling_budget(icp);
-  if (result && !settling && !result->reliable() && !result->partial() && !result->quality.converged &&
-      retry.max_total_iterations > icp.max_total_iterations) {
+  if (result && !settling && !result->reliable() && !result->partial() &&
+      !result->quality.converged && retry.max_total_iterations > icp.max_total_iterations) {
     const int spent = result->quality.iterations;
     result = run_icp(source, retry, T_ref_seed);
     if (result) result->quality.iterations += spent;
@@ -270,7 +282,8 @@ Result<TrackingDecision> Reconstructor::Impl::track_frame(double timestamp, cons
   }
   seed_gate_holding =
       decision.status == TrackingStatus::kTracking && icp->quality.seed_gated_directions > 0;
-  const bool icp_pose = decision.source == PoseSource::kIcp || decision.source == PoseSource::kIcpPartial;
+  const bool icp_pose =
+      decision.source == PoseSource::kIcp || decision.source == PoseSource::kIcpPartial;
   r.T_world_camera = icp_pose ? T_world_icp : T_world_seed;
   // A pair measures the motion only when both poses came from ICP against the same model:
   // the first frame placed after a loss (relocalized or not) also undoes dead reckoning's
@@ -286,8 +299,9 @@ Result<TrackingDecision> Reconstructor::Impl::track_frame(double timestamp, cons
     // rotation kept, as in the stretch): the frames before reach it by dead reckoning alone.
     Eigen::Isometry3d T_world_dead = T_world_estimate;
     T_world_dead.translation() = T_world_seed.translation();
-    pending = PendingCorrection{last_constrained_index, r.index, T_world_dead, r.T_world_camera,
-                                constrained_prior, partial_fixed, std::move(lost_depth)};
+    pending = PendingCorrection{last_constrained_index, r.index,           T_world_dead,
+                                r.T_world_camera,       constrained_prior, partial_fixed,
+                                std::move(lost_depth)};
     // The velocity dead reckoning carried out of the loss, corrected by the drift it shows.
     if (navigator && config.recovery.correct_velocity) {
       if (const auto dv = stretch_end_velocity_error(*pending, timestamp))
@@ -296,8 +310,10 @@ Result<TrackingDecision> Reconstructor::Impl::track_frame(double timestamp, cons
   }
   // Taken as exact only while dead reckoning is still within ICP's reach: from a seed further
   // off, partial ICP may settle on the wrong stretch of the model in the directions it fixes
-  // too, so there its move is a measurement to be checked (ReconstructorConfig::smoothing.partial_move_sigma).
-  if (decision.source == PoseSource::kIcpPartial && (!long_loss || config.smoothing.partial_move_sigma > 0))
+  // too, so there its move is a measurement to be checked
+  // (ReconstructorConfig::smoothing.partial_move_sigma).
+  if (decision.source == PoseSource::kIcpPartial &&
+      (!long_loss || config.smoothing.partial_move_sigma > 0))
     partial_fixed.push_back(
         {r.index, R_world_reference * icp->fixed_translation * R_world_reference.transpose(),
          T_world_icp.translation() - T_world_seed.translation(), long_loss});
@@ -318,7 +334,8 @@ void Reconstructor::Impl::update_stretch(const TrackingDecision& decision, doubl
     keep_depth(lost_depth, index, depth);
   }
   // A recovering frame rejoins the lost stretch if a later one disagrees with it (restart_pending).
-  if (decision.status == TrackingStatus::kRecovering && pending && config.smoothing.retrack_frames > 0)
+  if (decision.status == TrackingStatus::kRecovering && pending &&
+      config.smoothing.retrack_frames > 0)
     keep_depth(pending->depth, index, depth);
 }
 
@@ -443,7 +460,8 @@ Result<FrameResult> Reconstructor::fuse_with_pose(double timestamp, const DepthI
   const auto t0 = Clock::now();
   IMUFUSION_RETURN_IF_ERROR(m.check_frame(timestamp, depth, color));
   if (!T_world_camera.matrix().allFinite())
-    return make_error(ErrorCode::kInvalidArgument, "known pose at t=" + std::to_string(timestamp) + " is not finite");
+    return make_error(ErrorCode::kInvalidArgument,
+                      "known pose at t=" + std::to_string(timestamp) + " is not finite");
   IMUFUSION_RETURN_IF_ERROR(m.add_imu(imu));
   FrameResult r;
   r.index = m.trajectory.size();
@@ -460,7 +478,8 @@ Result<FrameResult> Reconstructor::fuse_with_pose(double timestamp, const DepthI
   if (!m.trajectory.empty() && m.navigator) {
     const StampedPose& previous = m.trajectory.back();
     r.imu = m.navigator->predict(previous.timestamp, timestamp);
-    m.navigator->observe(previous.timestamp, timestamp, previous.T_world_camera, T_world_camera, true);
+    m.navigator->observe(previous.timestamp, timestamp, previous.T_world_camera, T_world_camera,
+                         true);
   }
   if (!m.machine.started()) m.machine.start();
   IMUFUSION_RETURN_IF_ERROR(m.preprocess(depth, color, r.timings));
@@ -502,7 +521,8 @@ Result<RaycastImages> Reconstructor::raycast(const Eigen::Isometry3d& T_world_ca
   if (!(range.first >= 0 && range.second > range.first))
     return make_error(ErrorCode::kInvalidArgument, "raycast depth range is empty");
   const auto pixels = static_cast<std::size_t>(k.width) * k.height;
-  if (k.width <= 0 || k.height <= 0) return make_error(ErrorCode::kInvalidArgument, "raycast of an empty image");
+  if (k.width <= 0 || k.height <= 0)
+    return make_error(ErrorCode::kInvalidArgument, "raycast of an empty image");
   auto buffers = RaycastBuffers::create(m.context, pixels);
   if (!buffers) return buffers.error();
   IMUFUSION_RETURN_IF_ERROR(m.raycast_model(k, T_world_camera, range, *buffers, nullptr));
@@ -549,7 +569,9 @@ const Trajectory& Reconstructor::trajectory() const { return impl_->trajectory; 
 const ReconstructorConfig& Reconstructor::config() const { return impl_->config; }
 const DeviceInfo& Reconstructor::device() const { return impl_->context->info(); }
 std::uint32_t Reconstructor::allocated_blocks() const { return impl_->volume.allocated_blocks(); }
-std::uint64_t Reconstructor::memory_bytes() const { return impl_->volume.config().reserved_bytes(); }
+std::uint64_t Reconstructor::memory_bytes() const {
+  return impl_->volume.config().reserved_bytes();
+}
 std::uint32_t Reconstructor::validation_error_count() const {
   return impl_->context->validation_error_count();
 }

@@ -9,12 +9,12 @@
 
 #include "core/drift_model.hpp"
 #include "core/relocalizer.hpp"
-#include "vk/command_sequence.hpp"
-#include "vk/context.hpp"
 #include "gpu/icp_kernels.hpp"
 #include "gpu/preprocessor.hpp"
 #include "gpu/volume.hpp"
 #include "imufusion/reconstructor.hpp"
+#include "vk/command_sequence.hpp"
+#include "vk/context.hpp"
 
 namespace imufusion {
 
@@ -28,10 +28,12 @@ inline double ms_since(Clock::time_point t0) {
 struct RaycastBuffers {
   gpu::Buffer vertices, normals, shaded, colors;
 
-  static Result<RaycastBuffers> create(const std::shared_ptr<gpu::Context>& context, std::size_t pixels) {
+  static Result<RaycastBuffers> create(const std::shared_ptr<gpu::Context>& context,
+                                       std::size_t pixels) {
     RaycastBuffers b;
-    for (auto [buffer, bytes] : {std::pair{&b.vertices, pixels * 16}, std::pair{&b.normals, pixels * 16},
-                                 std::pair{&b.shaded, pixels * 4}, std::pair{&b.colors, pixels * 4}}) {
+    for (auto [buffer, bytes] :
+         {std::pair{&b.vertices, pixels * 16}, std::pair{&b.normals, pixels * 16},
+          std::pair{&b.shaded, pixels * 4}, std::pair{&b.colors, pixels * 4}}) {
       auto created = gpu::Buffer::create(context, bytes);
       if (!created) return created.error();
       *buffer = std::move(*created);
@@ -45,7 +47,8 @@ inline Result<Vec4Image> download_map(const gpu::Buffer& buffer, int width, int 
   image.width = width;
   image.height = height;
   image.data.resize(static_cast<std::size_t>(width) * height);
-  IMUFUSION_RETURN_IF_ERROR(buffer.download(image.data.data(), image.data.size() * sizeof(Eigen::Vector4f)));
+  IMUFUSION_RETURN_IF_ERROR(
+      buffer.download(image.data.data(), image.data.size() * sizeof(Eigen::Vector4f)));
   return image;
 }
 
@@ -63,7 +66,7 @@ struct Reconstructor::Impl {
   RaycastBuffers model;
   std::optional<InertialNavigator> navigator;
   TrackingStateMachine machine;
-  PairingReference pairing;  // what this scan's aligned frames pair
+  PairingReference pairing;                      // what this scan's aligned frames pair
   PredictionCalibration prediction_calibration;  // how far the IMU's prediction is off on this scan
 
   Trajectory trajectory;
@@ -86,10 +89,13 @@ struct Reconstructor::Impl {
     Eigen::Vector3d moved;  // the frame's move from its dead-reckoned seed (world)
     bool measured = false;  // after a long loss: the move is a measurement, not exact
   };
-  // Frame `index`'s entry in `frames` (sorted by index), or nullptr when partial ICP did not place it.
-  static const PartialFrame* find_partial(const std::vector<PartialFrame>& frames, std::size_t index) {
-    const auto it = std::lower_bound(frames.begin(), frames.end(), index,
-                                     [](const PartialFrame& f, std::size_t i) { return f.index < i; });
+  // Frame `index`'s entry in `frames` (sorted by index), or nullptr when partial ICP did not place
+  // it.
+  static const PartialFrame* find_partial(const std::vector<PartialFrame>& frames,
+                                          std::size_t index) {
+    const auto it =
+        std::lower_bound(frames.begin(), frames.end(), index,
+                         [](const PartialFrame& f, std::size_t i) { return f.index < i; });
     return it != frames.end() && it->index == index ? &*it : nullptr;
   }
   // The first frame that ICP placed after a loss, and where dead reckoning had put it: once the
@@ -152,7 +158,9 @@ struct Reconstructor::Impl {
     return raw != 0 && z >= config.preprocess.min_depth && z <= config.preprocess.max_depth;
   }
 
-  InertialStatus inertial_status() const { return navigator ? navigator->status() : InertialStatus{}; }
+  InertialStatus inertial_status() const {
+    return navigator ? navigator->status() : InertialStatus{};
+  }
 
   // Relocalization and the lost-stretch correction (reconstructor_recovery.cpp).
   double drift_radius(double timestamp) const;

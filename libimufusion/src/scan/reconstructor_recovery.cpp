@@ -18,7 +18,8 @@ double Reconstructor::Impl::drift_radius(double timestamp) const {
   const auto coarse = static_cast<std::size_t>(config.preprocess.levels - 1);
   return std::min(config.relocalization.max_radius,
                   std::max<double>(config.icp.max_distance[coarse],
-                                   0.5 * config.relocalization.drift_acceleration * lost_seconds * lost_seconds));
+                                   0.5 * config.relocalization.drift_acceleration * lost_seconds *
+                                       lost_seconds));
 }
 
 // A loss long enough that the dead-reckoned seed may lie beyond ICP's reach: an alignment
@@ -26,7 +27,8 @@ double Reconstructor::Impl::drift_radius(double timestamp) const {
 // confirmed by the relocalization search.
 bool Reconstructor::Impl::long_loss(double timestamp, const MotionPrediction& prediction) const {
   const auto coarse = static_cast<std::size_t>(config.preprocess.levels - 1);
-  return config.relocalization.enabled && prediction.rotation_from_imu && machine.status() == TrackingStatus::kLost &&
+  return config.relocalization.enabled && prediction.rotation_from_imu &&
+         machine.status() == TrackingStatus::kLost &&
          drift_radius(timestamp) > config.icp.max_distance[coarse];
 }
 
@@ -54,7 +56,9 @@ Status Reconstructor::Impl::build_field() {
   const double cutoff = 4 * config.relocalization.cell;
   const Eigen::Vector3d anchor = trajectory[last_constrained_index].T_world_camera.translation();
   const double reach = config.relocalization.max_radius + config.preprocess.max_depth + cutoff;
-  std::erase_if(surface, [&](const Eigen::Vector3d& p) { return (p - anchor).cwiseAbs().maxCoeff() > reach; });
+  std::erase_if(surface, [&](const Eigen::Vector3d& p) {
+    return (p - anchor).cwiseAbs().maxCoeff() > reach;
+  });
   field = SurfaceDistanceField(surface, config.relocalization.cell, cutoff);
   field_current = true;
   return {};
@@ -83,19 +87,21 @@ Result<std::optional<Reconstructor::Impl::Relocalization>> Reconstructor::Impl::
   if (points.size() > kMaxPoints) {
     std::vector<Eigen::Vector3d> kept;
     const double stride = static_cast<double>(points.size()) / kMaxPoints;
-    for (std::size_t i = 0; i < kMaxPoints; ++i) kept.push_back(points[static_cast<std::size_t>(static_cast<double>(i) * stride)]);
+    for (std::size_t i = 0; i < kMaxPoints; ++i)
+      kept.push_back(points[static_cast<std::size_t>(static_cast<double>(i) * stride)]);
     points = std::move(kept);
   }
-  std::vector<TranslationCandidate> candidates = field.search(
-      points, T_world_estimate.linear(), T_world_estimate.translation(), radius, config.relocalization.candidates);
+  std::vector<TranslationCandidate> candidates =
+      field.search(points, T_world_estimate.linear(), T_world_estimate.translation(), radius,
+                   config.relocalization.candidates);
   // Dead reckoning may have drifted beyond the search, while a hand-held camera that turns back
   // to the scanned model is seldom far from where the scan was lost: search there too.
   const Eigen::Vector3d lost_at = trajectory[last_constrained_index].T_world_camera.translation();
   if ((lost_at - T_world_estimate.translation()).norm() > config.relocalization.cell) {
-    candidates = merge_candidates(
-        candidates,
-        field.search(points, T_world_estimate.linear(), lost_at, radius, config.relocalization.candidates),
-        config.relocalization.candidates, 2 * config.relocalization.cell);
+    candidates = merge_candidates(candidates,
+                                  field.search(points, T_world_estimate.linear(), lost_at, radius,
+                                               config.relocalization.candidates),
+                                  config.relocalization.candidates, 2 * config.relocalization.cell);
   }
   std::optional<Relocalization> best;
   IcpReliabilityThresholds plausible = reliability(depth);
@@ -148,7 +154,8 @@ Result<Reconstructor::Impl::Retracked> Reconstructor::Impl::retrack(const Pendin
     // Where dead reckoning put frame i before partial ICP moved it, if it did: the frames
     // before reach it by dead reckoning alone, so the correction left there is measured from it.
     Eigen::Isometry3d dead_reckoned = dead;
-    if (const PartialFrame* partial = find_partial(c.fixed, i)) dead_reckoned.translation() -= partial->moved;
+    if (const PartialFrame* partial = find_partial(c.fixed, i))
+      dead_reckoned.translation() -= partial->moved;
     IMUFUSION_RETURN_IF_ERROR(preprocess(it->second, nullptr, scratch));
     out.moved_reference = true;
     IMUFUSION_RETURN_IF_ERROR(update_reference(seed, scratch));
@@ -202,7 +209,8 @@ Status Reconstructor::Impl::settle_lost_stretch(const PendingCorrection& c, Fram
   const auto t1 = Clock::now();
   auto retracked = retrack(c);
   if (!retracked) return retracked.error();
-  if (retracked->moved_reference) IMUFUSION_RETURN_IF_ERROR(update_reference(r.T_world_camera, r.timings));
+  if (retracked->moved_reference)
+    IMUFUSION_RETURN_IF_ERROR(update_reference(r.T_world_camera, r.timings));
   if (config.smoothing.retracked_frame_sigma > 0)
     correct_lost_stretch(c, retracked->placed);
   else
@@ -240,8 +248,8 @@ void Reconstructor::Impl::correct_lost_stretch(
 std::optional<Eigen::Vector3d> Reconstructor::Impl::stretch_end_velocity_error(
     const PendingCorrection& c, double end_time) const {
   const StretchCorrection end = end_error(c);
-  return drift_end_velocity(stretch_frames(c, {}), end_time - trajectory[c.anchor].timestamp, end.translation,
-                            end.rotation, c.prior);
+  return drift_end_velocity(stretch_frames(c, {}), end_time - trajectory[c.anchor].timestamp,
+                            end.translation, end.rotation, c.prior);
 }
 
 // The error the stretch's end shows: truth (where ICP placed it) - estimate (dead reckoning).
@@ -269,7 +277,8 @@ std::vector<StretchFrame> Reconstructor::Impl::stretch_frames(
       }
     }
     if (i >= first_placed) {
-      f.observed = placed[c.index - 1 - i].second.translation() - trajectory[i].T_world_camera.translation();
+      f.observed =
+          placed[c.index - 1 - i].second.translation() - trajectory[i].T_world_camera.translation();
       f.observed_sigma = config.smoothing.retracked_frame_sigma;
     }
     frames.push_back(f);
@@ -288,11 +297,15 @@ DriftPrior Reconstructor::Impl::drift_prior() const {
   // strongly correlated while the camera turned little) did worse on twelve wall scans
   // (bench/README.md).
   if (s.gravity_ready) {
-    const double scale2 = config.smoothing.gravity_sigma_scale * config.smoothing.gravity_sigma_scale;
-    prior.gravity_bias_covariance.topLeftCorner<3, 3>().diagonal().setConstant(scale2 * s.gravity_sigma.squaredNorm() / 3);
-    prior.gravity_bias_covariance.bottomRightCorner<3, 3>().diagonal().setConstant(scale2 * s.accel_bias_sigma.squaredNorm() / 3);
+    const double scale2 =
+        config.smoothing.gravity_sigma_scale * config.smoothing.gravity_sigma_scale;
+    prior.gravity_bias_covariance.topLeftCorner<3, 3>().diagonal().setConstant(
+        scale2 * s.gravity_sigma.squaredNorm() / 3);
+    prior.gravity_bias_covariance.bottomRightCorner<3, 3>().diagonal().setConstant(
+        scale2 * s.accel_bias_sigma.squaredNorm() / 3);
   }
-  prior.gyro_bias_sigma = config.smoothing.gyro_bias_sigma_scale * s.gyro_bias_sigma.norm() / std::sqrt(3.0);
+  prior.gyro_bias_sigma =
+      config.smoothing.gyro_bias_sigma_scale * s.gyro_bias_sigma.norm() / std::sqrt(3.0);
   prior.gyro_noise_density = config.inertial.gyro_noise_density;
   return prior;
 }

@@ -24,11 +24,13 @@ Result<Buffer> Buffer::create(std::shared_ptr<Context> context, VkDeviceSize byt
                VK_BUFFER_USAGE_TRANSFER_DST_BIT;
   info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
   VkResult result = vkCreateBuffer(ctx.device(), &info, nullptr, &buffer.buffer_);
-  if (result != VK_SUCCESS) return ctx.fail(result, "vkCreateBuffer (" + std::to_string(bytes) + " bytes)");
+  if (result != VK_SUCCESS)
+    return ctx.fail(result, "vkCreateBuffer (" + std::to_string(bytes) + " bytes)");
 
   VkMemoryRequirements req{};
   vkGetBufferMemoryRequirements(ctx.device(), buffer.buffer_, &req);
-  const VkMemoryPropertyFlags host = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+  const VkMemoryPropertyFlags host =
+      VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
   Result<std::uint32_t> type =
       mapped ? ctx.find_memory_type(req.memoryTypeBits, host | VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT)
              : ctx.find_memory_type(req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
@@ -83,8 +85,8 @@ Status Buffer::check_range(VkDeviceSize bytes, VkDeviceSize offset) const {
   if (buffer_ == VK_NULL_HANDLE) return make_error(ErrorCode::kInternal, "use of an empty buffer");
   if (offset + bytes > size_) {
     return make_error(ErrorCode::kInvalidArgument,
-                      "transfer of " + std::to_string(bytes) + " bytes at " + std::to_string(offset) +
-                          " exceeds a buffer of " + std::to_string(size_));
+                      "transfer of " + std::to_string(bytes) + " bytes at " +
+                          std::to_string(offset) + " exceeds a buffer of " + std::to_string(size_));
   }
   if (context_->lost()) return make_error(ErrorCode::kDeviceLost, "the device was lost earlier");
   return {};
@@ -102,7 +104,8 @@ Status Buffer::upload(const void* data, VkDeviceSize bytes, VkDeviceSize offset)
   IMUFUSION_RETURN_IF_ERROR(staging->upload(data, bytes));
   const VkBufferCopy region{0, offset, bytes};
   const VkBuffer src = staging->handle();
-  return context_->run_once([&](VkCommandBuffer cmd) { vkCmdCopyBuffer(cmd, src, buffer_, 1, &region); });
+  return context_->run_once(
+      [&](VkCommandBuffer cmd) { vkCmdCopyBuffer(cmd, src, buffer_, 1, &region); });
 }
 
 Status Buffer::download(void* data, VkDeviceSize bytes, VkDeviceSize offset) const {
@@ -116,8 +119,8 @@ Status Buffer::download(void* data, VkDeviceSize bytes, VkDeviceSize offset) con
   if (!staging) return staging.error();
   const VkBufferCopy region{offset, 0, bytes};
   const VkBuffer dst = staging->handle();
-  IMUFUSION_RETURN_IF_ERROR(
-      context_->run_once([&](VkCommandBuffer cmd) { vkCmdCopyBuffer(cmd, buffer_, dst, 1, &region); }));
+  IMUFUSION_RETURN_IF_ERROR(context_->run_once(
+      [&](VkCommandBuffer cmd) { vkCmdCopyBuffer(cmd, buffer_, dst, 1, &region); }));
   return staging->download(data, bytes);
 }
 
@@ -127,7 +130,8 @@ Status Buffer::clear() {
     std::memset(mapped_, 0, size_);
     return {};
   }
-  return context_->run_once([&](VkCommandBuffer cmd) { vkCmdFillBuffer(cmd, buffer_, 0, size_, 0); });
+  return context_->run_once(
+      [&](VkCommandBuffer cmd) { vkCmdFillBuffer(cmd, buffer_, 0, size_, 0); });
 }
 
 }  // namespace imufusion::gpu

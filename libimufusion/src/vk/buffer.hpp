@@ -3,15 +3,15 @@
 // device-local, host-visible memory and is mapped; elsewhere it is device-local and transfers go
 // through a temporary staging buffer.
 
+#include <vulkan/vulkan.h>
+
 #include <cstddef>
 #include <memory>
 #include <span>
 #include <vector>
 
-#include <vulkan/vulkan.h>
-
-#include "vk/context.hpp"
 #include "imufusion/result.hpp"
+#include "vk/context.hpp"
 
 namespace imufusion::gpu {
 

@@ -84,7 +84,8 @@ void CommandSequence::release() {
   VkDevice device = context_->device();
   if (recording_) vkEndCommandBuffer(cmd_);
   if (queries_ != VK_NULL_HANDLE) vkDestroyQueryPool(device, queries_, nullptr);
-  if (descriptor_pool_ != VK_NULL_HANDLE) vkDestroyDescriptorPool(device, descriptor_pool_, nullptr);
+  if (descriptor_pool_ != VK_NULL_HANDLE)
+    vkDestroyDescriptorPool(device, descriptor_pool_, nullptr);
   if (fence_ != VK_NULL_HANDLE) vkDestroyFence(device, fence_, nullptr);
   if (pool_ != VK_NULL_HANDLE) vkDestroyCommandPool(device, pool_, nullptr);  // frees cmd_
   queries_ = VK_NULL_HANDLE;
@@ -98,7 +99,8 @@ void CommandSequence::release() {
 Status CommandSequence::begin() {
   if (!context_) return make_error(ErrorCode::kInternal, "begin() on an empty command sequence");
   Context& ctx = *context_;
-  if (ctx.lost()) return make_error(ErrorCode::kDeviceLost, "device " + ctx.info().name + " was lost");
+  if (ctx.lost())
+    return make_error(ErrorCode::kDeviceLost, "device " + ctx.info().name + " was lost");
   if (recording_) return make_error(ErrorCode::kInternal, "begin() while already recording");
   error_.reset();
   labels_.clear();
@@ -195,7 +197,8 @@ void CommandSequence::dispatch(const ComputePipeline& pipeline,
   barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
   barrier.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
   vkCmdPipelineBarrier(cmd_, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                       VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &barrier, 0, nullptr, 0, nullptr);
+                       VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &barrier, 0, nullptr, 0,
+                       nullptr);
   labels_.push_back(label);
 }
 
@@ -231,10 +234,10 @@ Result<std::vector<KernelTiming>> CommandSequence::submit_and_wait() {
   std::vector<std::uint64_t> stamps(2 * labels_.size());
   bool have_stamps = false;
   if (queries_ != VK_NULL_HANDLE && !labels_.empty()) {
-    result = vkGetQueryPoolResults(ctx.device(), queries_, 0, static_cast<std::uint32_t>(stamps.size()),
-                                   stamps.size() * sizeof(std::uint64_t), stamps.data(),
-                                   sizeof(std::uint64_t),
-                                   VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT);
+    result = vkGetQueryPoolResults(
+        ctx.device(), queries_, 0, static_cast<std::uint32_t>(stamps.size()),
+        stamps.size() * sizeof(std::uint64_t), stamps.data(), sizeof(std::uint64_t),
+        VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT);
     if (result != VK_SUCCESS) return ctx.fail(result, "vkGetQueryPoolResults");
     have_stamps = true;
   }
@@ -242,7 +245,8 @@ Result<std::vector<KernelTiming>> CommandSequence::submit_and_wait() {
     KernelTiming t;
     t.kernel = labels_[i];
     if (have_stamps) {
-      t.gpu_ms = static_cast<double>(stamps[2 * i + 1] - stamps[2 * i]) * ctx.timestamp_period_ns() * 1e-6;
+      t.gpu_ms =
+          static_cast<double>(stamps[2 * i + 1] - stamps[2 * i]) * ctx.timestamp_period_ns() * 1e-6;
     }
     timings.push_back(std::move(t));
   }

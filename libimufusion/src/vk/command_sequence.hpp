@@ -3,6 +3,8 @@
 // each, GPU timestamps around each, and descriptor sets from a pool reset at every begin().
 // submit_and_wait() returns the per-kernel GPU times.
 
+#include <vulkan/vulkan.h>
+
 #include <cstdint>
 #include <initializer_list>
 #include <memory>
@@ -10,13 +12,11 @@
 #include <string>
 #include <vector>
 
-#include <vulkan/vulkan.h>
-
+#include "imufusion/device.hpp"
+#include "imufusion/result.hpp"
 #include "vk/buffer.hpp"
 #include "vk/context.hpp"
 #include "vk/pipeline.hpp"
-#include "imufusion/device.hpp"
-#include "imufusion/result.hpp"
 
 namespace imufusion::gpu {
 

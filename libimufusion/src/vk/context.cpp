@@ -12,11 +12,16 @@ namespace imufusion {
 
 const char* to_string(DeviceType type) {
   switch (type) {
-    case DeviceType::kDiscreteGpu: return "discrete GPU";
-    case DeviceType::kIntegratedGpu: return "integrated GPU";
-    case DeviceType::kVirtualGpu: return "virtual GPU";
-    case DeviceType::kCpu: return "CPU";
-    case DeviceType::kOther: return "other";
+    case DeviceType::kDiscreteGpu:
+      return "discrete GPU";
+    case DeviceType::kIntegratedGpu:
+      return "integrated GPU";
+    case DeviceType::kVirtualGpu:
+      return "virtual GPU";
+    case DeviceType::kCpu:
+      return "CPU";
+    case DeviceType::kOther:
+      return "other";
   }
   return "other";
 }
@@ -29,21 +34,31 @@ constexpr std::uint64_t kFenceTimeoutNs = 60ull * 1000 * 1000 * 1000;  // a minu
 
 DeviceType to_device_type(VkPhysicalDeviceType type) {
   switch (type) {
-    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return DeviceType::kDiscreteGpu;
-    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return DeviceType::kIntegratedGpu;
-    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return DeviceType::kVirtualGpu;
-    case VK_PHYSICAL_DEVICE_TYPE_CPU: return DeviceType::kCpu;
-    default: return DeviceType::kOther;
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU:
+      return DeviceType::kDiscreteGpu;
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU:
+      return DeviceType::kIntegratedGpu;
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU:
+      return DeviceType::kVirtualGpu;
+    case VK_PHYSICAL_DEVICE_TYPE_CPU:
+      return DeviceType::kCpu;
+    default:
+      return DeviceType::kOther;
   }
 }
 
 int type_rank(DeviceType type) {
   switch (type) {
-    case DeviceType::kDiscreteGpu: return 0;
-    case DeviceType::kIntegratedGpu: return 1;
-    case DeviceType::kVirtualGpu: return 2;
-    case DeviceType::kCpu: return 3;
-    case DeviceType::kOther: return 4;
+    case DeviceType::kDiscreteGpu:
+      return 0;
+    case DeviceType::kIntegratedGpu:
+      return 1;
+    case DeviceType::kVirtualGpu:
+      return 2;
+    case DeviceType::kCpu:
+      return 3;
+    case DeviceType::kOther:
+      return 4;
   }
   return 4;
 }
@@ -64,15 +79,17 @@ bool layer_available(const char* name) {
   if (vkEnumerateInstanceLayerProperties(&count, nullptr) != VK_SUCCESS) return false;
   std::vector<VkLayerProperties> layers(count);
   if (vkEnumerateInstanceLayerProperties(&count, layers.data()) != VK_SUCCESS) return false;
-  return std::any_of(layers.begin(), layers.end(),
-                     [&](const VkLayerProperties& l) { return std::strcmp(l.layerName, name) == 0; });
+  return std::any_of(layers.begin(), layers.end(), [&](const VkLayerProperties& l) {
+    return std::strcmp(l.layerName, name) == 0;
+  });
 }
 
 bool instance_extension_available(const char* name) {
   std::uint32_t count = 0;
   if (vkEnumerateInstanceExtensionProperties(nullptr, &count, nullptr) != VK_SUCCESS) return false;
   std::vector<VkExtensionProperties> exts(count);
-  if (vkEnumerateInstanceExtensionProperties(nullptr, &count, exts.data()) != VK_SUCCESS) return false;
+  if (vkEnumerateInstanceExtensionProperties(nullptr, &count, exts.data()) != VK_SUCCESS)
+    return false;
   return std::any_of(exts.begin(), exts.end(), [&](const VkExtensionProperties& e) {
     return std::strcmp(e.extensionName, name) == 0;
   });
@@ -87,7 +104,8 @@ int compute_queue_family(VkPhysicalDevice physical) {
   int best = -1;
   for (std::uint32_t i = 0; i < count; ++i) {
     if ((families[i].queueFlags & VK_QUEUE_COMPUTE_BIT) == 0) continue;
-    if (best < 0 || (families[i].queueFlags & VK_QUEUE_GRAPHICS_BIT) == 0) best = static_cast<int>(i);
+    if (best < 0 || (families[i].queueFlags & VK_QUEUE_GRAPHICS_BIT) == 0)
+      best = static_cast<int>(i);
     if ((families[i].queueFlags & VK_QUEUE_GRAPHICS_BIT) == 0) break;
   }
   return best;
@@ -111,7 +129,8 @@ DeviceInfo describe(VkPhysicalDevice physical, int index) {
   info.api_version = props.properties.apiVersion;
   for (std::uint32_t h = 0; h < memory.memoryHeapCount; ++h) {
     if (memory.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT)
-      info.device_local_bytes = std::max<std::uint64_t>(info.device_local_bytes, memory.memoryHeaps[h].size);
+      info.device_local_bytes =
+          std::max<std::uint64_t>(info.device_local_bytes, memory.memoryHeaps[h].size);
   }
   const int family = compute_queue_family(physical);
   if (family >= 0 && props.properties.limits.timestampPeriod > 0) {
@@ -144,8 +163,9 @@ Result<VkInstance> make_instance(bool validation, bool debug_utils) {
   VkInstance instance = VK_NULL_HANDLE;
   const VkResult result = vkCreateInstance(&info, nullptr, &instance);
   if (result != VK_SUCCESS) {
-    Error error = vk_error(result, "vkCreateInstance (is a Vulkan driver installed? Debian: "
-                                   "mesa-vulkan-drivers)");
+    Error error = vk_error(result,
+                           "vkCreateInstance (is a Vulkan driver installed? Debian: "
+                           "mesa-vulkan-drivers)");
     error.code = ErrorCode::kNoDevice;
     return error;
   }
@@ -377,7 +397,8 @@ VkResult Context::submit(const VkSubmitInfo& submit_info, VkFence fence) {
 }
 
 Status Context::run_once(const std::function<void(VkCommandBuffer)>& record) {
-  if (lost_) return make_error(ErrorCode::kDeviceLost, "device " + info_.name + " was lost earlier");
+  if (lost_)
+    return make_error(ErrorCode::kDeviceLost, "device " + info_.name + " was lost earlier");
   VkCommandBufferAllocateInfo alloc{};
   alloc.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
   alloc.commandPool = one_shot_pool_;
@@ -404,7 +425,8 @@ Status Context::run_once(const std::function<void(VkCommandBuffer)>& record) {
       submit_info.commandBufferCount = 1;
       submit_info.pCommandBuffers = &cmd;
       result = vkQueueSubmit(queue_, 1, &submit_info, fence);
-      if (result == VK_SUCCESS) result = vkWaitForFences(device_, 1, &fence, VK_TRUE, kFenceTimeoutNs);
+      if (result == VK_SUCCESS)
+        result = vkWaitForFences(device_, 1, &fence, VK_TRUE, kFenceTimeoutNs);
     }
     vkDestroyFence(device_, fence, nullptr);
   }

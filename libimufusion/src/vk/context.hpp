@@ -3,6 +3,8 @@
 // Shared (std::shared_ptr) by every buffer, pipeline and command sequence made from it, so that
 // it outlives them.
 
+#include <vulkan/vulkan.h>
+
 #include <atomic>
 #include <cstdint>
 #include <functional>
@@ -10,8 +12,6 @@
 #include <mutex>
 #include <string>
 #include <vector>
-
-#include <vulkan/vulkan.h>
 
 #include "imufusion/device.hpp"
 #include "imufusion/result.hpp"

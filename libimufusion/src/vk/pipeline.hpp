@@ -3,16 +3,16 @@
 // shape: storage buffers at bindings 0..N-1 of set 0, one push-constant block, and the workgroup
 // size as specialization constants 0 (x) and 1 (y).
 
+#include <vulkan/vulkan.h>
+
 #include <cstdint>
 #include <memory>
 #include <span>
 #include <string>
 #include <string_view>
 
-#include <vulkan/vulkan.h>
-
-#include "vk/context.hpp"
 #include "imufusion/result.hpp"
+#include "vk/context.hpp"
 
 namespace imufusion::gpu {
 
@@ -20,10 +20,10 @@ namespace imufusion::gpu {
 std::span<const std::uint32_t> embedded_spirv(std::string_view name);
 
 struct PipelineDesc {
-  std::string shader;                  // stem of shaders/NAME.comp
-  std::uint32_t buffer_count = 0;      // storage buffers at bindings 0..buffer_count-1
+  std::string shader;              // stem of shaders/NAME.comp
+  std::uint32_t buffer_count = 0;  // storage buffers at bindings 0..buffer_count-1
   std::uint32_t push_constant_bytes = 0;
-  std::uint32_t local_size_x = 16;     // workgroup size (specialization constants 0, 1)
+  std::uint32_t local_size_x = 16;  // workgroup size (specialization constants 0, 1)
   std::uint32_t local_size_y = 16;
 };
 

@@ -1,9 +1,9 @@
 #pragma once
 // Maps failing VkResults to imufusion Errors.
 
-#include <string>
-
 #include <vulkan/vulkan.h>
+
+#include <string>
 
 #include "imufusion/result.hpp"
 
@@ -17,9 +17,9 @@ Error vk_error(VkResult result, const std::string& what);
 }  // namespace imufusion::gpu
 
 /// Returns an Error from the enclosing function when the Vulkan call fails.
-#define IMUFUSION_VK_CHECK(call, what)                                  \
-  do {                                                                  \
-    const VkResult imufusion_vk_result_ = (call);                       \
-    if (imufusion_vk_result_ != VK_SUCCESS)                             \
-      return ::imufusion::gpu::vk_error(imufusion_vk_result_, (what));  \
+#define IMUFUSION_VK_CHECK(call, what)                                 \
+  do {                                                                 \
+    const VkResult imufusion_vk_result_ = (call);                      \
+    if (imufusion_vk_result_ != VK_SUCCESS)                            \
+      return ::imufusion::gpu::vk_error(imufusion_vk_result_, (what)); \
   } while (false)

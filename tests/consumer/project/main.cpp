@@ -4,13 +4,12 @@
 // IMUFUSION_REQUIRE_GPU is set (as in CI).
 #include <cstdint>
 #include <cstdlib>
-#include <iostream>
-#include <string>
-#include <vector>
-
 #include <imufusion/reconstructor.hpp>
 #include <imufusion/sequence.hpp>
 #include <imufusion/synth.hpp>
+#include <iostream>
+#include <string>
+#include <vector>
 
 using namespace imufusion;
 
