@@ -115,8 +115,7 @@ Score score_adaptive(const std::vector<Sample>& samples, const std::string& sour
   PairingReference pairing;
   for (const Sample& x : samples) {
     if (x.source != source) continue;
-    IcpReliabilityThresholds t;
-    t.max_residual_per_weight = std::max(t.max_residual_per_weight, 2.0 * x.noise_variance);
+    IcpReliabilityThresholds t = IcpReliabilityThresholds{}.widened_to_noise(x.noise_variance);
     pairing.apply(t.min_inlier_fraction, t.min_pixel_fraction);
     const bool reliable = judge_icp(x.q, t, nullptr);
     if (start.empty() || x.start == start) s.add(reliable, x.good);
@@ -137,21 +136,6 @@ Eigen::Isometry3d perturb(std::mt19937_64& rng, double max_deg, double min_deg, 
           .toRotationMatrix();
   T.translation() = dir.normalized() * (min_m + (max_m - min_m) * u(rng));
   return T;
-}
-
-// Over the depths preprocessing keeps, as the scanner's residual test takes it.
-double mean_noise_variance(const DepthImage& depth, const DepthNoiseModel& noise) {
-  const PreprocessConfig range;
-  double sum = 0;
-  std::size_t n = 0;
-  for (std::uint16_t raw : depth.data) {
-    const double z = raw / depth.depth_scale;
-    if (raw == 0 || z < range.min_depth || z > range.max_depth) continue;
-    const double sigma = noise.sigma(z);
-    sum += sigma * sigma;
-    ++n;
-  }
-  return n > 0 ? sum / static_cast<double>(n) : 0.0;
 }
 
 // One frame pair: the constrained probe, then ICP from each kind of start. `base` labels the
@@ -176,7 +160,9 @@ bool measure_pair(IcpTracker& tracker, const DepthImage& ref, const DepthImage& 
   }
   double probe_t = 0, probe_r = 0;
   const bool constrained = landed(probe->T_ref_cur, &probe_t, &probe_r);
-  const double noise_variance = mean_noise_variance(cur, config.depth_noise);
+  const PreprocessConfig range;  // the depths preprocessing keeps, as the scanner's residual test
+  const double noise_variance =
+      config.depth_noise.mean_variance(cur, range.min_depth, range.max_depth);
   const std::pair<const char*, Eigen::Isometry3d> starts[] = {
       {"identity", Eigen::Isometry3d::Identity()},
       {"imu_like", truth * perturb(rng, 3, 0, 0.03, 0)},

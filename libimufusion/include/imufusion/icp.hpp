@@ -31,6 +31,8 @@ struct DepthNoiseModel {
     const double s = sigma(z);
     return a > 0 ? (a / s) * (a / s) : 1.0;
   }
+  /// Mean sigma(z)^2 (m^2) over the depths of `depth` in [min_depth, max_depth] (m); 0 when none.
+  double mean_variance(const DepthImage& depth, double min_depth, double max_depth) const;
 };
 
 /// The normal-angle test of a pair follows the current pixel's depth noise: at depth z a pair is
@@ -87,6 +89,11 @@ struct IcpReliabilityThresholds {
   /// fraction barely sees. Below the 37-40 % that an aligned frame facing a far room pairs.
   double min_pixel_fraction = 0.35;
   std::uint64_t min_inliers = 100;  // a floor for tiny images
+
+  /// These thresholds with the residual test widened to a frame's depth noise: at least twice
+  /// its mean sigma(z)^2 `noise_variance` (m^2, DepthNoiseModel::mean_variance), the most that
+  /// sigma_cur^2 + sigma_model^2 reaches (a far scene is noisier, not misaligned).
+  IcpReliabilityThresholds widened_to_noise(double noise_variance) const;
 };
 
 struct IcpConfig {

@@ -285,6 +285,27 @@ Eigen::Isometry3d icp_increment(const Eigen::Matrix<double, 6, 1>& x) {
   return inc;
 }
 
+double DepthNoiseModel::mean_variance(const DepthImage& depth, double min_depth,
+                                      double max_depth) const {
+  double sum = 0;
+  std::size_t n = 0;
+  const double scale = 1.0 / depth.depth_scale;
+  for (std::uint16_t raw : depth.data) {
+    const double z = raw * scale;
+    if (raw == 0 || z < min_depth || z > max_depth) continue;
+    const double s = sigma(z);
+    sum += s * s;
+    ++n;
+  }
+  return n > 0 ? sum / static_cast<double>(n) : 0.0;
+}
+
+IcpReliabilityThresholds IcpReliabilityThresholds::widened_to_noise(double noise_variance) const {
+  IcpReliabilityThresholds t = *this;
+  t.max_residual_per_weight = std::max(t.max_residual_per_weight, 2.0 * noise_variance);
+  return t;
+}
+
 bool judge_icp(const IcpQuality& q, const IcpReliabilityThresholds& t, std::string* reason) {
   std::string why;
   if (q.inliers == 0) {

@@ -112,26 +112,12 @@ std::size_t Reconstructor::Impl::valid_depth_pixels(const DepthImage& depth) con
                     [&](std::uint16_t raw) { return valid_depth(raw, raw * scale); }));
 }
 
-// Mean sigma(z)^2 over the frame's valid depths (m^2).
-double Reconstructor::Impl::mean_noise_variance(const DepthImage& depth) const {
-  double sum = 0;
-  std::size_t n = 0;
-  const double scale = 1.0 / depth.depth_scale;
-  for (std::uint16_t raw : depth.data) {
-    const double z = raw * scale;
-    if (!valid_depth(raw, z)) continue;
-    const double sigma = config.icp.depth_noise.sigma(z);
-    sum += sigma * sigma;
-    ++n;
-  }
-  return n > 0 ? sum / static_cast<double>(n) : 0.0;
-}
-
 // The reliability thresholds for this frame: the residual test widened to its depth noise,
 // the pairing tests lowered to what this scan's aligned frames pair.
 IcpReliabilityThresholds Reconstructor::Impl::reliability(const DepthImage& depth) const {
-  IcpReliabilityThresholds t = config.icp.reliability;
-  t.max_residual_per_weight = std::max(t.max_residual_per_weight, 2.0 * mean_noise_variance(depth));
+  IcpReliabilityThresholds t =
+      config.icp.reliability.widened_to_noise(config.icp.depth_noise.mean_variance(
+          depth, config.preprocess.min_depth, config.preprocess.max_depth));
   pairing.apply(t.min_inlier_fraction, t.min_pixel_fraction);
   return t;
 }

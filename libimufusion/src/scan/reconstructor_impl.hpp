@@ -133,7 +133,6 @@ struct Reconstructor::Impl {
   Status update_reference(const Eigen::Isometry3d& T_world_camera, FrameTimings& timings);
   Status pair_with_own_model(FrameTimings& timings);
   std::size_t valid_depth_pixels(const DepthImage& depth) const;
-  double mean_noise_variance(const DepthImage& depth) const;
   IcpReliabilityThresholds reliability(const DepthImage& depth) const;
   int seed_start_level(const MotionPrediction& prediction, const DepthImage& depth) const;
   Result<IcpResult> align(const DepthImage& depth, const Eigen::Isometry3d& T_world_seed,
