@@ -21,6 +21,12 @@ TEST(ReconstructorConfig, RejectsSettingsOutOfRange) {
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.error().message.find("recovery_frames"), std::string::npos);
   c.tracking.recovery_frames = 3;
+  c.tracking.constant_velocity_pairs = -1;
+  s = c.validate();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("constant_velocity_pairs"), std::string::npos);
+  c.tracking.constant_velocity_pairs = 0;  // the previous pose as the seed
+  EXPECT_TRUE(c.validate().ok());
   c.smoothing.gravity_sigma_scale = 0;
   s = c.validate();
   ASSERT_FALSE(s.ok());

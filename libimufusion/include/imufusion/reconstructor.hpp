@@ -152,7 +152,9 @@ struct FrameResult {
   /// ICP of this frame against the model (not run for the first frame or known poses).
   bool icp_ran = false;
   IcpResult icp;
-  /// The IMU's prediction dIMU of the motion since the previous frame (identity when none).
+  /// The IMU's prediction dIMU of the motion since the previous frame that seeded ICP; without
+  /// an IMU, T_a_b is the constant-velocity motion (TrackingConfig::constant_velocity_pairs) or the
+  /// identity, and every other field is left at its default.
   MotionPrediction imu;
   InertialStatus inertial;
   IntegrationStats integration;  // when fused

@@ -63,6 +63,10 @@ struct TrackingConfig {
   /// (6 dof) of ICP's move from the prediction over the last `prediction_window` frames ICP
   /// tracked on its own, over chi^2's median (5.35), never below 1 (bench/README.md). 0: off.
   int prediction_window = 30;
+  /// Without the IMU, ICP starts from the previous pose moved by the mean velocity over up to
+  /// this many of the last frame pairs that ICP tracked (constant velocity: a hand-held camera's
+  /// motion is smooth, one pair's estimate is noisy); 0: from the previous pose.
+  int constant_velocity_pairs = 2;
 };
 
 /// What aligned frames of this scan pair against the model (the medians of IcpQuality's

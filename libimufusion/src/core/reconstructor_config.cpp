@@ -24,6 +24,9 @@ Status ReconstructorConfig::validate() const {
   if (tracking.prediction_window < 0)
     return bad("tracking.prediction_window must be non-negative, got " +
                std::to_string(tracking.prediction_window));
+  if (tracking.constant_velocity_pairs < 0)
+    return bad("tracking.constant_velocity_pairs must be non-negative, got " +
+               std::to_string(tracking.constant_velocity_pairs));
   if (tracking.pairing_window < 0)
     return bad("tracking.pairing_window must be non-negative, got " +
                std::to_string(tracking.pairing_window));

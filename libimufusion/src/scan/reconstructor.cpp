@@ -7,6 +7,7 @@
 #include <string>
 #include <utility>
 
+#include "core/so3.hpp"
 #include "gpu/rgba.hpp"
 #include "scan/reconstructor_impl.hpp"
 
@@ -220,11 +221,42 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthImage& depth,
 // decision, and the bookkeeping that follows it: the pairing reference, the seed gate, the
 // motion the navigator observes, a restarted recovery and the pending correction of a loss.
 // Sets r's ICP result and pose.
+// The mean motion over the frames tracked in a row before this one, scaled to `interval` (s);
+// the identity with an IMU, with TrackingConfig::constant_velocity_pairs 0, or when the previous
+// two frames were not both tracked.
+Eigen::Isometry3d Reconstructor::Impl::constant_velocity_motion(double interval) const {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  if (navigator || tracked_run.size() < 2) return T;
+  const StampedPose &first = tracked_run.front(), &last = tracked_run.back();
+  const Eigen::Isometry3d motion = first.T_world_camera.inverse() * last.T_world_camera;
+  const double scale = interval / (last.timestamp - first.timestamp);
+  T.linear() = exp_so3(scale * log_so3(motion.linear()));
+  T.translation() =
+      scale * (last.T_world_camera.linear().transpose() *
+               (last.T_world_camera.translation() - first.T_world_camera.translation()));
+  return T;
+}
+
+void Reconstructor::Impl::note_motion(bool tracked, double timestamp,
+                                      const Eigen::Isometry3d& T_world_camera) {
+  if (!tracked || config.tracking.constant_velocity_pairs <= 0 ||
+      (!tracked_run.empty() && timestamp <= tracked_run.back().timestamp)) {
+    tracked_run.clear();
+    return;
+  }
+  tracked_run.push_back({timestamp, T_world_camera});
+  if (tracked_run.size() > static_cast<std::size_t>(config.tracking.constant_velocity_pairs) + 1)
+    tracked_run.pop_front();
+}
+
 Result<TrackingDecision> Reconstructor::Impl::track_frame(double timestamp, const DepthImage& depth,
                                                           FrameResult& r) {
   const StampedPose& previous = trajectory.back();
   frame_interval = timestamp - previous.timestamp;
-  if (navigator) r.imu = navigator->predict(previous.timestamp, timestamp);
+  if (navigator)
+    r.imu = navigator->predict(previous.timestamp, timestamp);
+  else
+    r.imu.T_a_b = constant_velocity_motion(frame_interval);
   const Eigen::Isometry3d T_world_seed = previous.T_world_camera * r.imu.T_a_b;
   auto icp = align(depth, T_world_seed, r.imu, machine.recovering_or_lost(), r.timings);
   if (!icp) return icp.error();
@@ -432,6 +464,11 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
     decision = *tracked;
   }
   m.update_stretch(decision, timestamp, r.index, depth);
+  // The pose is a measurement of the motion: the scan's start, or fully tracked by ICP.
+  m.note_motion(
+      decision.status == TrackingStatus::kTracking &&
+          (decision.source == PoseSource::kIcp || decision.source == PoseSource::kInitial),
+      timestamp, r.T_world_camera);
   IMUFUSION_RETURN_IF_ERROR(m.fuse_and_record(decision, timestamp, color != nullptr, r));
   r.inertial = m.inertial_status();
   r.timings.total_ms = ms_since(t0);
@@ -475,6 +512,7 @@ Result<FrameResult> Reconstructor::fuse_with_pose(double timestamp, const DepthI
   r.fused = true;
   m.field_current = false;
   m.trajectory.push_back({timestamp, T_world_camera});
+  m.note_motion(true, timestamp, T_world_camera);
   r.inertial = m.inertial_status();
   r.timings.total_ms = ms_since(t0);
   return r;
@@ -548,6 +586,7 @@ Status Reconstructor::reset() {
   m.last_constrained_index = 0;
   m.lost_frames_since_attempt = 0;
   m.T_world_reference = Eigen::Isometry3d::Identity();
+  m.tracked_run.clear();
   return {};
 }
 

@@ -121,6 +121,9 @@ struct Reconstructor::Impl {
   // frame is gated at seed_gate_hold_sigmas.
   bool seed_gate_holding = false;
   double frame_interval = 0;  // s, from the previous frame to the one being aligned
+  // Without the IMU (TrackingConfig::constant_velocity_pairs): the newest frames tracked in a
+  // row, oldest first, at most constant_velocity_pairs + 1.
+  std::deque<StampedPose> tracked_run;
 
   // The per-frame pipeline (reconstructor.cpp).
   Status check_frame(double timestamp, const DepthImage& depth, const ColorImage* rgb) const;
@@ -138,6 +141,8 @@ struct Reconstructor::Impl {
   Result<IcpResult> align(const DepthImage& depth, const Eigen::Isometry3d& T_world_seed,
                           const MotionPrediction& prediction, bool settling, FrameTimings& timings);
   Result<TrackingDecision> track_frame(double timestamp, const DepthImage& depth, FrameResult& r);
+  Eigen::Isometry3d constant_velocity_motion(double interval) const;
+  void note_motion(bool tracked, double timestamp, const Eigen::Isometry3d& T_world_camera);
   void update_stretch(const TrackingDecision& decision, double timestamp, std::size_t index,
                       const DepthImage& depth);
   Status fuse_and_record(const TrackingDecision& decision, double timestamp, bool with_color,
