@@ -323,6 +323,23 @@ struct ScanRun {
   std::size_t frames_without_pose = 0;
 };
 
+// summary.json's "stage_ms" (mean wall ms per frame of each stage) and "kernel_gpu_ms" (mean GPU
+// ms per frame of each kernel, slowest first, with its dispatches per frame).
+void write_stage_times(const ScanStatistics& stats, nlohmann::json& j) {
+  const FrameTimings& t = stats.mean_stage_ms;
+  j["stage_ms"] = {{"preprocess", t.preprocess_ms},
+                   {"icp", t.icp_ms},
+                   {"integrate", t.integrate_ms},
+                   {"raycast", t.raycast_ms},
+                   {"relocalize", t.relocalize_ms},
+                   {"retrack", t.retrack_ms},
+                   {"total", t.total_ms}};
+  nlohmann::json kernels = nlohmann::json::array();
+  for (const auto& k : stats.mean_kernels)
+    kernels.push_back({{"kernel", k.kernel}, {"gpu_ms", k.gpu_ms}, {"dispatches", k.dispatches}});
+  j["kernel_gpu_ms"] = kernels;
+}
+
 nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const ScanRun& run,
                             const ScanStatistics& stats, const SequenceReader* reader,
                             const std::string& input) {
@@ -347,6 +364,7 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
   j["median_icp_iterations_tracking"] = stats.median_icp_iterations_tracking;
   j["fps"] = stats.fps;
   j["median_frame_ms"] = stats.median_frame_ms;
+  write_stage_times(stats, j);
   j["blocks_allocated"] = rec.allocated_blocks();
   j["block_capacity"] = rec.config().volume.block_capacity;
   j["pool_full_frames"] = stats.pool_full_frames;

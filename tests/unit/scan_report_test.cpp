@@ -89,5 +89,33 @@ TEST(ScanSummary, FrameByFrameGivesWhatSummarizeScanGives) {
   EXPECT_DOUBLE_EQ(a.fps, b.fps);
 }
 
+// The per-stage means are over all frames (a stage that did not run counts 0 ms); a kernel's
+// mean sums its dispatches within a frame, and the kernels come slowest first.
+TEST(ScanSummary, StageAndKernelMeansPerFrame) {
+  std::vector<FrameResult> scan(4);
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    FrameTimings& t = scan[i].timings;
+    t.preprocess_ms = 2.0;
+    t.icp_ms = i == 0 ? 0.0 : 4.0;
+    t.raycast_ms = 1.0 + static_cast<double>(i);
+    t.total_ms = t.preprocess_ms + t.icp_ms + t.raycast_ms;
+    t.kernels = {{"bilateral[0]", 1.5}, {"icp_reduce[0]", 0.5}, {"icp_reduce[0]", 0.25}};
+    if (i == 0) t.kernels.pop_back();
+  }
+  const ScanStatistics s = summarize_scan(scan);
+  EXPECT_DOUBLE_EQ(s.mean_stage_ms.preprocess_ms, 2.0);
+  EXPECT_DOUBLE_EQ(s.mean_stage_ms.icp_ms, 3.0);
+  EXPECT_DOUBLE_EQ(s.mean_stage_ms.raycast_ms, 2.5);
+  EXPECT_DOUBLE_EQ(s.mean_stage_ms.integrate_ms, 0.0);
+  EXPECT_DOUBLE_EQ(s.mean_stage_ms.total_ms, 7.5);
+  ASSERT_EQ(s.mean_kernels.size(), 2u);
+  EXPECT_EQ(s.mean_kernels[0].kernel, "bilateral[0]");
+  EXPECT_DOUBLE_EQ(s.mean_kernels[0].gpu_ms, 1.5);
+  EXPECT_DOUBLE_EQ(s.mean_kernels[0].dispatches, 1.0);
+  EXPECT_EQ(s.mean_kernels[1].kernel, "icp_reduce[0]");
+  EXPECT_DOUBLE_EQ(s.mean_kernels[1].gpu_ms, (0.5 + 3 * 0.75) / 4);
+  EXPECT_DOUBLE_EQ(s.mean_kernels[1].dispatches, 7.0 / 4);
+}
+
 }  // namespace
 }  // namespace imufusion

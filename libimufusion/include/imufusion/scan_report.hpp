@@ -4,6 +4,7 @@
 // print and store.
 
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,16 @@ struct ScanStatistics {
   double mean_frame_ms = 0;
   double median_frame_ms = 0;
   double fps = 0;  // frames / total frame time
+  /// Mean wall time per frame of each stage (ms, over all frames; total_ms is the whole frame).
+  FrameTimings mean_stage_ms;
+  /// Mean GPU time per frame of each kernel (timestamp queries, ms, a frame's dispatches of the
+  /// kernel summed), with the mean number of its dispatches per frame; slowest first.
+  struct KernelShare {
+    std::string kernel;  // shader name and pyramid level, e.g. "bilateral[0]"
+    double gpu_ms = 0;
+    double dispatches = 0;
+  };
+  std::vector<KernelShare> mean_kernels;
   /// Frames from the end of each loss (first lost frame) to the frame that resumed tracking.
   std::vector<std::size_t> recovery_frames;
 };
@@ -68,9 +79,13 @@ class ScanSummary {
   ScanStatistics statistics() const;
 
  private:
+  void add_stage_times(const FrameTimings& timings);
+
   ScanStatistics statistics_;  // the counts; means, medians and fps at statistics()
   std::vector<float> iterations_, tracking_iterations_, ms_;
   double total_ms_ = 0;
+  FrameTimings stage_sums_;  // kernels unused: kernel_sums_ holds them
+  std::map<std::string, ScanStatistics::KernelShare> kernel_sums_;
   bool in_loss_ = false;
   std::size_t loss_start_ = 0;
   TrackingStatus previous_status_ = TrackingStatus::kTracking;

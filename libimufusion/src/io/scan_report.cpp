@@ -94,6 +94,7 @@ void ScanSummary::add(const FrameResult& f) {
     tracking_iterations_.push_back(static_cast<float>(f.icp.quality.iterations));
   ms_.push_back(static_cast<float>(f.timings.total_ms));
   total_ms_ += f.timings.total_ms;
+  add_stage_times(f.timings);
   if (f.status != TrackingStatus::kTracking && !in_loss_) {
     in_loss_ = true;
     loss_start_ = i;
@@ -102,6 +103,22 @@ void ScanSummary::add(const FrameResult& f) {
     ++s.recoveries;
     if (in_loss_) s.recovery_frames.push_back(i - loss_start_);
     in_loss_ = false;
+  }
+}
+
+void ScanSummary::add_stage_times(const FrameTimings& t) {
+  FrameTimings& sum = stage_sums_;
+  sum.preprocess_ms += t.preprocess_ms;
+  sum.icp_ms += t.icp_ms;
+  sum.integrate_ms += t.integrate_ms;
+  sum.raycast_ms += t.raycast_ms;
+  sum.relocalize_ms += t.relocalize_ms;
+  sum.retrack_ms += t.retrack_ms;
+  sum.total_ms += t.total_ms;
+  for (const KernelTiming& k : t.kernels) {
+    ScanStatistics::KernelShare& share = kernel_sums_[k.kernel];
+    share.gpu_ms += std::max(0.0, k.gpu_ms);
+    share.dispatches += 1;
   }
 }
 
@@ -121,6 +138,22 @@ ScanStatistics ScanSummary::statistics() const {
     s.median_frame_ms = median_of(ms_);
   }
   s.fps = total_ms_ > 0 ? 1000.0 * static_cast<double>(s.frames) / total_ms_ : 0;
+  if (s.frames > 0) {
+    const double n = static_cast<double>(s.frames);
+    const FrameTimings& sum = stage_sums_;
+    FrameTimings& mean = s.mean_stage_ms;
+    mean.preprocess_ms = sum.preprocess_ms / n;
+    mean.icp_ms = sum.icp_ms / n;
+    mean.integrate_ms = sum.integrate_ms / n;
+    mean.raycast_ms = sum.raycast_ms / n;
+    mean.relocalize_ms = sum.relocalize_ms / n;
+    mean.retrack_ms = sum.retrack_ms / n;
+    mean.total_ms = sum.total_ms / n;
+    for (const auto& [kernel, share] : kernel_sums_)
+      s.mean_kernels.push_back({kernel, share.gpu_ms / n, share.dispatches / n});
+    std::sort(s.mean_kernels.begin(), s.mean_kernels.end(),
+              [](const auto& a, const auto& b) { return a.gpu_ms > b.gpu_ms; });
+  }
   return s;
 }
 
