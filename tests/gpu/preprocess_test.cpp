@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <random>
 
+#include "core/map_pyramid.hpp"
 #include "gpu/preprocessor.hpp"
 #include "gpu_test_env.hpp"
 #include "reference/preprocess_reference.hpp"
@@ -221,6 +222,40 @@ TEST_F(GpuTest, PyramidDoesNotAverageAcrossDiscontinuities) {
     EXPECT_FLOAT_EQ(half.at(1, v), 1.0f);
     EXPECT_FLOAT_EQ(half.at(2, v), 1.0f) << "the block straddling the edge keeps its near side";
     EXPECT_FLOAT_EQ(half.at(3, v), 3.0f);
+  }
+}
+
+// The model raycast's maps become the ICP reference on the GPU (copy + map_pyramid_down): the
+// same pyramid as the host rule core/map_pyramid.cpp, on an odd size with holes and a step:
+// identical validity, 1e-6 m / 1e-6 per component (a GPU may divide by a reciprocal).
+TEST_F(GpuTest, ReferencePyramidFromGpuMapsMatchesTheHostRule) {
+  const Intrinsics k = test_intrinsics(97, 61);
+  const PreprocessConfig config;
+  auto frame = run_on_gpu(context_, config, k, test_depth(k, 5));
+  ASSERT_TRUE(frame.ok()) << frame.error().describe();
+  const Vec4Image& vertices = frame->vertices[0];
+  const Vec4Image& normals = frame->normals[0];
+  const auto bytes = vertices.data.size() * sizeof(Eigen::Vector4f);
+  auto v = gpu::Buffer::create(context_, bytes), n = gpu::Buffer::create(context_, bytes);
+  ASSERT_TRUE(v.ok() && n.ok());
+  ASSERT_TRUE(v->upload(vertices.data.data(), bytes).ok());
+  ASSERT_TRUE(n->upload(normals.data.data(), bytes).ok());
+  auto reference = gpu::Preprocessor::create(context_, config, k);
+  ASSERT_TRUE(reference.ok());
+  auto seq = gpu::CommandSequence::create(context_, reference->maps_dispatch_count());
+  ASSERT_TRUE(seq.ok());
+  ASSERT_TRUE(seq->begin().ok());
+  reference->record_maps_from(*seq, *v, *n);
+  auto timings = seq->submit_and_wait();
+  ASSERT_TRUE(timings.ok()) << timings.error().describe();
+  EXPECT_EQ(timings->size(), reference->maps_dispatch_count());
+  auto gpu = reference->download();
+  ASSERT_TRUE(gpu.ok());
+  const auto host = build_map_pyramid(vertices, normals, config.levels, config.max_jump_fraction);
+  ASSERT_EQ(gpu->vertices.size(), host.size());
+  for (std::size_t l = 0; l < host.size(); ++l) {
+    expect_vectors_near(gpu->vertices[l], host[l].vertices, 1e-6, "reference vertices");
+    expect_vectors_near(gpu->normals[l], host[l].normals, 1e-6, "reference normals");
   }
 }
 

@@ -59,5 +59,40 @@ TEST(VkErrorMapping, DeviceLossAndMemoryExhaustionHaveTheirOwnCodes) {
   EXPECT_EQ(gpu::vk_error(VK_ERROR_FEATURE_NOT_PRESENT, "x").code, ErrorCode::kVulkanError);
 }
 
+// Memory tables as drivers report them: lavapipe (one heap, one type with every host flag) and
+// a discrete GPU with resizable BAR (device-local host-visible memory, but uncached).
+TEST(UnifiedMemory, OnlyCachedHostVisibleDeviceMemoryCounts) {
+  VkPhysicalDeviceMemoryProperties cpu{};
+  cpu.memoryHeapCount = 1;
+  cpu.memoryHeaps[0] = {std::uint64_t{16} << 30, VK_MEMORY_HEAP_DEVICE_LOCAL_BIT};
+  cpu.memoryTypeCount = 1;
+  cpu.memoryTypes[0] = {VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT | VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT |
+                            VK_MEMORY_PROPERTY_HOST_COHERENT_BIT |
+                            VK_MEMORY_PROPERTY_HOST_CACHED_BIT,
+                        0};
+  EXPECT_TRUE(gpu::has_unified_memory(cpu, cpu.memoryHeaps[0].size));
+
+  VkPhysicalDeviceMemoryProperties rebar{};
+  rebar.memoryHeapCount = 2;
+  rebar.memoryHeaps[0] = {std::uint64_t{80} << 30, VK_MEMORY_HEAP_DEVICE_LOCAL_BIT};
+  rebar.memoryHeaps[1] = {std::uint64_t{64} << 30, 0};
+  rebar.memoryTypeCount = 4;
+  rebar.memoryTypes[0] = {VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, 0};
+  rebar.memoryTypes[1] = {
+      VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT, 1};
+  rebar.memoryTypes[2] = {VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT |
+                              VK_MEMORY_PROPERTY_HOST_COHERENT_BIT |
+                              VK_MEMORY_PROPERTY_HOST_CACHED_BIT,
+                          1};
+  rebar.memoryTypes[3] = {VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT |
+                              VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT |
+                              VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                          0};
+  EXPECT_FALSE(gpu::has_unified_memory(rebar, rebar.memoryHeaps[0].size));
+  // A small cached device-local window does not hold the volume either.
+  cpu.memoryHeaps[0].size = 256ull << 20;
+  EXPECT_FALSE(gpu::has_unified_memory(cpu, std::uint64_t{16} << 30));
+}
+
 }  // namespace
 }  // namespace imufusion

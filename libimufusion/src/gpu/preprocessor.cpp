@@ -60,8 +60,9 @@ Result<Preprocessor> Preprocessor::create(std::shared_ptr<Context> context,
   p.config_ = config;
   const auto wx = static_cast<std::uint32_t>(config.workgroup_x);
   const auto wy = static_cast<std::uint32_t>(config.workgroup_y);
-  auto make = [&](const char* shader, std::uint32_t push_bytes, ComputePipeline& out) -> Status {
-    auto pipeline = ComputePipeline::create(context, {shader, 2, push_bytes, wx, wy});
+  auto make = [&](const char* shader, std::uint32_t push_bytes, ComputePipeline& out,
+                  std::uint32_t buffers = 2) -> Status {
+    auto pipeline = ComputePipeline::create(context, {shader, buffers, push_bytes, wx, wy});
     if (!pipeline) return pipeline.error();
     out = std::move(*pipeline);
     return {};
@@ -73,6 +74,8 @@ Result<Preprocessor> Preprocessor::create(std::shared_ptr<Context> context,
       make("pyramid_down", sizeof(layout::PyramidDownParams), p.pyramid_down_));
   IMUFUSION_RETURN_IF_ERROR(make("vertex_map", sizeof(layout::VertexMapParams), p.vertex_map_));
   IMUFUSION_RETURN_IF_ERROR(make("normal_map", sizeof(layout::NormalMapParams), p.normal_map_));
+  IMUFUSION_RETURN_IF_ERROR(
+      make("map_pyramid_down", sizeof(layout::PyramidDownParams), p.map_pyramid_, 4));
 
   auto alloc = [&](std::size_t bytes, Buffer& out) -> Status {
     auto buffer = Buffer::create(context, bytes);
@@ -135,6 +138,27 @@ Status Preprocessor::upload_maps(const Vec4Image& vertices, const Vec4Image& nor
     IMUFUSION_RETURN_IF_ERROR(normals_[l].upload(pyramid[l].normals.data.data(), bytes));
   }
   return {};
+}
+
+void Preprocessor::record_maps_from(CommandSequence& seq, const Buffer& vertices,
+                                    const Buffer& normals) const {
+  seq.copy(vertices, vertices_[0], vertices_[0].size(), "reference_copy[0]");
+  seq.copy(normals, normals_[0], normals_[0].size(), "reference_copy[0]");
+  for (int level = 1; level < config_.levels; ++level) {
+    const auto l = static_cast<std::size_t>(level);
+    const Intrinsics& src = levels_[l - 1];
+    const Intrinsics& dst = levels_[l];
+    const layout::PyramidDownParams down{
+        static_cast<std::uint32_t>(src.width), static_cast<std::uint32_t>(src.height),
+        static_cast<std::uint32_t>(dst.width), static_cast<std::uint32_t>(dst.height),
+        config_.max_jump_fraction};
+    seq.dispatch(map_pyramid_, {&vertices_[l - 1], &normals_[l - 1], &vertices_[l], &normals_[l]},
+                 down, down.dst_width, down.dst_height, level_label("map_pyramid_down", level));
+  }
+}
+
+std::uint32_t Preprocessor::maps_dispatch_count() const {
+  return 2 + static_cast<std::uint32_t>(config_.levels - 1);
 }
 
 std::uint32_t Preprocessor::dispatch_count() const {

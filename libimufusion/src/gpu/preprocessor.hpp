@@ -24,6 +24,12 @@ class Preprocessor {
   /// image, with the coarser levels built on the host (core/map_pyramid.hpp). The depth buffers
   /// are left as they were.
   Status upload_maps(const Vec4Image& vertices, const Vec4Image& normals);
+  /// Records the copy of full-resolution maps already on the GPU (a model raycast, float4 per
+  /// pixel) into level 0 and the coarser levels built from them on the GPU by upload_maps' rule
+  /// (shaders/map_pyramid_down.comp): no host round trip. The depth buffers are left as they were.
+  void record_maps_from(CommandSequence& seq, const Buffer& vertices, const Buffer& normals) const;
+  /// Number of dispatches record_maps_from() adds.
+  std::uint32_t maps_dispatch_count() const;
   /// Records every preprocessing dispatch into `seq` (between begin and submit).
   void record(CommandSequence& seq) const;
   /// Number of dispatches record() adds.
@@ -41,7 +47,7 @@ class Preprocessor {
  private:
   PreprocessConfig config_;
   std::vector<Intrinsics> levels_;
-  ComputePipeline to_metres_, bilateral_, pyramid_down_, vertex_map_, normal_map_;
+  ComputePipeline to_metres_, bilateral_, pyramid_down_, vertex_map_, normal_map_, map_pyramid_;
   Buffer raw_;         // uint16 pairs
   Buffer raw_metres_;  // level 0, unfiltered
   std::vector<Buffer> depth_, vertices_, normals_;

@@ -82,11 +82,11 @@ Status Reconstructor::Impl::update_reference(const Eigen::Isometry3d& T_world_ca
   const Intrinsics& k = config.intrinsics;
   IMUFUSION_RETURN_IF_ERROR(
       raycast_model(k, T_world_camera, depth_range(), model, &timings.kernels));
-  auto vertices = download_map(model.vertices, k.width, k.height);
-  if (!vertices) return vertices.error();
-  auto normals = download_map(model.normals, k.width, k.height);
-  if (!normals) return normals.error();
-  IMUFUSION_RETURN_IF_ERROR(reference.upload_maps(*vertices, *normals));
+  IMUFUSION_RETURN_IF_ERROR(reference_seq.begin());
+  reference.record_maps_from(reference_seq, model.vertices, model.normals);
+  auto t = reference_seq.submit_and_wait();
+  if (!t) return t.error();
+  timings.kernels.insert(timings.kernels.end(), t->begin(), t->end());
   T_world_reference = T_world_camera;
   has_reference = true;
   timings.raycast_ms += ms_since(t0);
@@ -411,6 +411,9 @@ Result<Reconstructor> Reconstructor::create(const ReconstructorConfig& config) {
   auto pre_seq = gpu::CommandSequence::create(m.context, m.current.dispatch_count());
   if (!pre_seq) return pre_seq.error();
   m.preprocess_seq = std::move(*pre_seq);
+  auto reference_seq = gpu::CommandSequence::create(m.context, m.reference.maps_dispatch_count());
+  if (!reference_seq) return reference_seq.error();
+  m.reference_seq = std::move(*reference_seq);
   auto icp_seq = gpu::CommandSequence::create(m.context, gpu::IcpKernels::kDispatches);
   if (!icp_seq) return icp_seq.error();
   m.icp_seq = std::move(*icp_seq);

@@ -58,6 +58,7 @@ struct Reconstructor::Impl {
   gpu::Preprocessor current;    // the incoming frame
   gpu::Preprocessor reference;  // the model raycast the next frame is aligned to
   gpu::CommandSequence preprocess_seq;
+  gpu::CommandSequence reference_seq;  // the raycast maps into `reference`'s pyramid
   gpu::CommandSequence icp_seq;
   gpu::IcpKernels icp_kernels;
   gpu::TsdfVolume volume;

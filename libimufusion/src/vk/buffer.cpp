@@ -8,6 +8,27 @@
 
 namespace imufusion::gpu {
 
+namespace {
+
+// A mapped buffer is read by the host (staging, unified memory): host-cached memory first (the
+// unified type itself, or system memory on a discrete GPU), then any coherent host-visible type.
+// Otherwise device-local memory.
+Result<std::uint32_t> memory_type(const Context& ctx, std::uint32_t type_bits, bool mapped) {
+  if (!mapped) return ctx.find_memory_type(type_bits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+  const VkMemoryPropertyFlags host =
+      VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+  if (ctx.unified_memory()) {
+    auto unified = ctx.find_memory_type(
+        type_bits, host | VK_MEMORY_PROPERTY_HOST_CACHED_BIT | VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+    if (unified) return unified;
+  }
+  auto cached = ctx.find_memory_type(type_bits, host | VK_MEMORY_PROPERTY_HOST_CACHED_BIT);
+  if (cached) return cached;
+  return ctx.find_memory_type(type_bits, host);
+}
+
+}  // namespace
+
 Result<Buffer> Buffer::create(std::shared_ptr<Context> context, VkDeviceSize bytes,
                               bool host_visible) {
   if (bytes == 0) return make_error(ErrorCode::kInvalidArgument, "buffer of 0 bytes");
@@ -29,12 +50,7 @@ Result<Buffer> Buffer::create(std::shared_ptr<Context> context, VkDeviceSize byt
 
   VkMemoryRequirements req{};
   vkGetBufferMemoryRequirements(ctx.device(), buffer.buffer_, &req);
-  const VkMemoryPropertyFlags host =
-      VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
-  Result<std::uint32_t> type =
-      mapped ? ctx.find_memory_type(req.memoryTypeBits, host | VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT)
-             : ctx.find_memory_type(req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
-  if (!type && mapped) type = ctx.find_memory_type(req.memoryTypeBits, host);
+  Result<std::uint32_t> type = memory_type(ctx, req.memoryTypeBits, mapped);
   if (!type) return type.error();
 
   VkMemoryAllocateInfo alloc{};
@@ -65,11 +81,13 @@ Buffer& Buffer::operator=(Buffer&& other) noexcept {
     memory_ = std::exchange(other.memory_, VK_NULL_HANDLE);
     size_ = std::exchange(other.size_, 0);
     mapped_ = std::exchange(other.mapped_, nullptr);
+    staging_ = std::move(other.staging_);
   }
   return *this;
 }
 
 void Buffer::release() {
+  staging_.reset();
   if (!context_) return;
   VkDevice device = context_->device();
   if (mapped_ != nullptr) vkUnmapMemory(device, memory_);
@@ -99,11 +117,12 @@ Status Buffer::upload(const void* data, VkDeviceSize bytes, VkDeviceSize offset)
     std::memcpy(static_cast<char*>(mapped_) + offset, data, bytes);
     return {};
   }
-  auto staging = Buffer::create(context_, bytes, true);
+  std::unique_ptr<Buffer> temporary;
+  auto staging = this->staging(bytes, temporary);
   if (!staging) return staging.error();
-  IMUFUSION_RETURN_IF_ERROR(staging->upload(data, bytes));
+  IMUFUSION_RETURN_IF_ERROR((*staging)->upload(data, bytes));
   const VkBufferCopy region{0, offset, bytes};
-  const VkBuffer src = staging->handle();
+  const VkBuffer src = (*staging)->handle();
   return context_->run_once(
       [&](VkCommandBuffer cmd) { vkCmdCopyBuffer(cmd, src, buffer_, 1, &region); });
 }
@@ -115,13 +134,23 @@ Status Buffer::download(void* data, VkDeviceSize bytes, VkDeviceSize offset) con
     std::memcpy(data, static_cast<const char*>(mapped_) + offset, bytes);
     return {};
   }
-  auto staging = Buffer::create(context_, bytes, true);
+  std::unique_ptr<Buffer> temporary;
+  auto staging = this->staging(bytes, temporary);
   if (!staging) return staging.error();
   const VkBufferCopy region{offset, 0, bytes};
-  const VkBuffer dst = staging->handle();
+  const VkBuffer dst = (*staging)->handle();
   IMUFUSION_RETURN_IF_ERROR(context_->run_once(
       [&](VkCommandBuffer cmd) { vkCmdCopyBuffer(cmd, buffer_, dst, 1, &region); }));
-  return staging->download(data, bytes);
+  return (*staging)->download(data, bytes);
+}
+
+Result<Buffer*> Buffer::staging(VkDeviceSize bytes, std::unique_ptr<Buffer>& temporary) const {
+  if (staging_ && staging_->size() >= bytes) return staging_.get();
+  auto created = Buffer::create(context_, bytes, true);
+  if (!created) return created.error();
+  auto& keep = bytes <= kKeptStagingBytes ? staging_ : temporary;
+  keep = std::make_unique<Buffer>(std::move(*created));
+  return keep.get();
 }
 
 Status Buffer::clear() {

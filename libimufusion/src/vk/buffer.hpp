@@ -1,7 +1,7 @@
 #pragma once
 // A storage buffer that owns its VkBuffer and memory. On unified-memory devices it lives in
 // device-local, host-visible memory and is mapped; elsewhere it is device-local and transfers go
-// through a temporary staging buffer.
+// through a host-cached staging buffer, kept for the next transfer up to kKeptStagingBytes.
 
 #include <vulkan/vulkan.h>
 
@@ -52,12 +52,18 @@ class Buffer {
  private:
   void release();
   Status check_range(VkDeviceSize bytes, VkDeviceSize offset) const;
+  /// A host-visible buffer of at least `bytes`: the kept one, or a new one (kept when small).
+  Result<Buffer*> staging(VkDeviceSize bytes, std::unique_ptr<Buffer>& temporary) const;
 
   std::shared_ptr<Context> context_;
   VkBuffer buffer_ = VK_NULL_HANDLE;
   VkDeviceMemory memory_ = VK_NULL_HANDLE;
   VkDeviceSize size_ = 0;
   void* mapped_ = nullptr;
+  mutable std::unique_ptr<Buffer> staging_;
 };
+
+/// Staging buffers up to this size (bytes) are kept with their buffer for the next transfer.
+inline constexpr VkDeviceSize kKeptStagingBytes = VkDeviceSize{32} << 20;
 
 }  // namespace imufusion::gpu

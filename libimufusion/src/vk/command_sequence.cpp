@@ -122,17 +122,8 @@ void CommandSequence::dispatch(const ComputePipeline& pipeline,
                                std::initializer_list<const Buffer*> buffers,
                                const void* push_constants, std::uint32_t width,
                                std::uint32_t height, const std::string& label) {
-  if (error_) return;
+  if (!check_room(label)) return;
   const PipelineDesc& desc = pipeline.desc();
-  if (!recording_) {
-    error_ = make_error(ErrorCode::kInternal, "dispatch of " + label + " outside begin()/submit");
-    return;
-  }
-  if (labels_.size() >= max_dispatches_) {
-    error_ = make_error(ErrorCode::kInternal, "more than " + std::to_string(max_dispatches_) +
-                                                  " dispatches in one command sequence");
-    return;
-  }
   if (buffers.size() != desc.buffer_count || buffers.size() > kMaxBuffersPerDispatch) {
     error_ = make_error(ErrorCode::kInternal, label + ": " + std::to_string(buffers.size()) +
                                                   " buffers bound, shader " + desc.shader +
@@ -192,27 +183,68 @@ void CommandSequence::dispatch(const ComputePipeline& pipeline,
     vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries_, 2 * index + 1);
 
   // The next dispatch may read what this one wrote.
+  barrier(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+          VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+          VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+  labels_.push_back(label);
+}
+
+void CommandSequence::copy(const Buffer& src, const Buffer& dst, VkDeviceSize bytes,
+                           const std::string& label) {
+  if (!check_room(label)) return;
+  if (!src.valid() || !dst.valid() || bytes > src.size() || bytes > dst.size()) {
+    error_ =
+        make_error(ErrorCode::kInternal,
+                   label + ": copy of " + std::to_string(bytes) + " bytes between buffers of " +
+                       std::to_string(src.size()) + " and " + std::to_string(dst.size()));
+    return;
+  }
+  const auto index = static_cast<std::uint32_t>(labels_.size());
+  if (queries_ != VK_NULL_HANDLE)
+    vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queries_, 2 * index);
+  barrier(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+          VK_PIPELINE_STAGE_TRANSFER_BIT,
+          VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_TRANSFER_WRITE_BIT);
+  const VkBufferCopy region{0, 0, bytes};
+  if (bytes > 0) vkCmdCopyBuffer(cmd_, src.handle(), dst.handle(), 1, &region);
+  barrier(VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+          VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+          VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+  if (queries_ != VK_NULL_HANDLE)
+    vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries_, 2 * index + 1);
+  labels_.push_back(label);
+}
+
+bool CommandSequence::check_room(const std::string& label) {
+  if (error_) return false;
+  if (!recording_) {
+    error_ = make_error(ErrorCode::kInternal, "dispatch of " + label + " outside begin()/submit");
+    return false;
+  }
+  if (labels_.size() >= max_dispatches_) {
+    error_ = make_error(ErrorCode::kInternal, "more than " + std::to_string(max_dispatches_) +
+                                                  " dispatches in one command sequence");
+    return false;
+  }
+  return true;
+}
+
+void CommandSequence::barrier(VkPipelineStageFlags src_stage, VkAccessFlags src_access,
+                              VkPipelineStageFlags dst_stage, VkAccessFlags dst_access) {
   VkMemoryBarrier barrier{};
   barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
-  barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
-  barrier.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
-  vkCmdPipelineBarrier(cmd_, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                       VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &barrier, 0, nullptr, 0,
-                       nullptr);
-  labels_.push_back(label);
+  barrier.srcAccessMask = src_access;
+  barrier.dstAccessMask = dst_access;
+  vkCmdPipelineBarrier(cmd_, src_stage, dst_stage, 0, 1, &barrier, 0, nullptr, 0, nullptr);
 }
 
 Result<std::vector<KernelTiming>> CommandSequence::submit_and_wait() {
   if (!recording_) return make_error(ErrorCode::kInternal, "submit without begin()");
   Context& ctx = *context_;
   // Results written by the shaders become visible to host reads and transfers.
-  VkMemoryBarrier barrier{};
-  barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
-  barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
-  barrier.dstAccessMask = VK_ACCESS_HOST_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT;
-  vkCmdPipelineBarrier(cmd_, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                       VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 1, &barrier,
-                       0, nullptr, 0, nullptr);
+  barrier(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+          VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+          VK_ACCESS_HOST_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT);
   VkResult result = vkEndCommandBuffer(cmd_);
   recording_ = false;
   if (error_) return *error_;

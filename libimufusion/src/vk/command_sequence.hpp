@@ -45,11 +45,17 @@ class CommandSequence {
                 const std::string& label) {
     dispatch(pipeline, buffers, static_cast<const void*>(&push), width, height, label);
   }
+  /// Records a copy of the first `bytes` of `src` into `dst`, ordered after the dispatches before
+  /// it and before those after it; counts as one dispatch (timed, labelled).
+  void copy(const Buffer& src, const Buffer& dst, VkDeviceSize bytes, const std::string& label);
   /// Ends recording, submits, waits for completion, and returns one timing per dispatch.
   Result<std::vector<KernelTiming>> submit_and_wait();
 
  private:
   void release();
+  bool check_room(const std::string& label);
+  void barrier(VkPipelineStageFlags src_stage, VkAccessFlags src_access,
+               VkPipelineStageFlags dst_stage, VkAccessFlags dst_access);
 
   std::shared_ptr<Context> context_;
   std::uint32_t max_dispatches_ = 0;

@@ -18,6 +18,11 @@
 
 namespace imufusion::gpu {
 
+/// Whether buffers can live mapped in device memory: a device-local, host-visible, coherent and
+/// cached type on a heap of at least `device_local_bytes` (a CPU device or an integrated GPU).
+bool has_unified_memory(const VkPhysicalDeviceMemoryProperties& memory,
+                        std::uint64_t device_local_bytes);
+
 class Context {
  public:
   static Result<std::shared_ptr<Context>> create(const DeviceOptions& options = {});
