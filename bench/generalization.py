@@ -106,6 +106,10 @@ def parse_args():
     ap.add_argument("--force", action="store_true", help="run again the runs that have outputs")
     ap.add_argument("--jobs", type=int, default=1, help="tracker runs at once (default 1)")
     ap.add_argument("--no-peer", action="store_true", help="skip the Open3D peer")
+    ap.add_argument("--scan-args", default="",
+                    help='extra imufusion-scan options for our runs, e.g. "--tracking-level 0"')
+    ap.add_argument("--runs-tag", default="",
+                    help="our runs and the peer's go to WORK/runs-TAG (renders are shared)")
     parts = ap.add_mutually_exclusive_group()
     parts.add_argument("--no-imu-run", action="store_true", help="skip ours without the IMU")
     parts.add_argument("--imu-only", action="store_true", help="only ours with the IMU (no peer, no --no-imu)")
@@ -247,7 +251,8 @@ class Run:
             return ["/usr/bin/python3", args.tools / "o3d_slam.py", self.seq, "--out", "{out}",
                     "--raycast-offset-fix", "--init", "gt", "--print-every", "0"] + self.extra
         flags = ["--no-imu"] if self.kind == "noimu" else []
-        return [args.scan, self.seq, "--out", "{out}", "--quiet"] + flags + self.extra
+        return ([args.scan, self.seq, "--out", "{out}", "--quiet"] + flags + self.extra +
+                args.scan_args.split())
 
     def execute(self, args):
         what = "%s on %s" % ({"imu": "ours+IMU", "noimu": "ours no IMU", "o3d": "Open3D"}[self.kind],
@@ -255,15 +260,19 @@ class Run:
         self.error = produce(what, self.out, self.command(args), "trajectory.txt", args.force)
 
 
+def runs_root(args):
+    return args.work / ("runs-" + args.runs_tag if args.runs_tag else "runs")
+
+
 def scene_runs(args, seq, name):
-    root = args.work / "runs" / name
+    root = runs_root(args) / name
     kinds = ["imu"] + ([] if args.no_imu_run else ["noimu"]) + ([] if args.no_peer else ["o3d"])
     return {k: Run(k, seq, root / k) for k in kinds}
 
 
 def tum_runs(args, step):
     first = "_first%d" % args.tum_max_frames if args.tum_max_frames else ""
-    root = args.work / "runs" / ("%s%s_step%d" % (TUM_NAME, first, step))
+    root = runs_root(args) / ("%s%s_step%d" % (TUM_NAME, first, step))
     ours = ["--frame-step", step]
     if args.tum_max_frames:
         ours += ["--frames", math.ceil(args.tum_max_frames / step)]

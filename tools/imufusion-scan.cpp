@@ -68,6 +68,7 @@ struct Options {
   int recovery_frames = TrackingConfig{}.recovery_frames;
   float voxel_size = 0.01f;
   std::uint32_t block_capacity = VolumeConfig{}.block_capacity;
+  int tracking_level = ReconstructorConfig{}.tracking_level;
   long max_frames = -1;  // scanned (kept) frames at most; -1: all
   std::size_t frame_step = 1;
   std::string device;
@@ -97,7 +98,7 @@ int usage(std::ostream& out, int code) {
          "WxH@FPS]\n"
          "                      [--realtime] [--imu-udp PORT] [--imu-udp-address ADDR] [--record "
          "DIR]\n"
-         "                      [--frame-step N] [--block-capacity N]\n"
+         "                      [--frame-step N] [--block-capacity N] [--tracking-level N]\n"
          "Scans SEQUENCE, a camera (openni2:// or openni2://URI) or a recording (FILE.oni) "
          "(default:\n"
          "the embedded demo room, synthesized into --demo-dir, default ./demo) and writes DIR "
@@ -128,7 +129,11 @@ int usage(std::ostream& out, int code) {
          "  --block-capacity N       TSDF blocks the volume holds (8^3 voxels, 4 KiB each; default "
       << VolumeConfig{}.block_capacity
       << ");\n"
-         "                           beyond them new surface is not fused (frames.csv pool_full)\n";
+         "                           beyond them new surface is not fused (frames.csv pool_full)\n"
+         "  --tracking-level N       pyramid level of ICP and the model raycast: 0 full size, 1 "
+         "half\n"
+         "                           (default: 1 on a CPU device, 0 on a GPU); fusion takes the "
+         "full frame\n";
   return code;
 }
 
@@ -202,6 +207,9 @@ int parse(int argc, char** argv, Options& opt) {
       } else if (a == "--recovery-frames") {
         if (!integer || *integer < 1 || *integer > 1000) return bad("a positive count");
         opt.recovery_frames = static_cast<int>(*integer);
+      } else if (a == "--tracking-level") {
+        if (!integer || *integer < 0 || *integer > 2) return bad("a pyramid level 0..2");
+        opt.tracking_level = static_cast<int>(*integer);
       } else if (a == "--block-capacity") {
         if (!integer || *integer < 1 || *integer > (1 << 21)) return bad("a count 1..2097152");
         opt.block_capacity = static_cast<std::uint32_t>(*integer);
@@ -283,6 +291,7 @@ ReconstructorConfig make_config(const Options& opt, const SequenceReader* reader
   config.intrinsics = k;
   config.volume.voxel_size = opt.voxel_size;
   config.volume.block_capacity = opt.block_capacity;
+  config.tracking_level = opt.tracking_level;
   // The hash table keeps at least 4 slots per block, as the defaults do.
   while (config.volume.hash_slots < 4ull * opt.block_capacity) config.volume.hash_slots *= 2;
   config.device.selector = opt.device;
@@ -384,6 +393,9 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
   }
   s["imu_source"] = !c.imu.enabled ? "none" : opt.imu_udp ? "udp" : "sequence";
   s["icp_iterations_cap"] = c.icp.max_total_iterations;
+  const Intrinsics tracked = c.intrinsics.at_level(rec.tracking_level());
+  s["tracking_level"] = rec.tracking_level();
+  s["tracking_size"] = std::to_string(tracked.width) + "x" + std::to_string(tracked.height);
   s["recovery_icp_iterations"] = c.recovery.icp_iterations;
   s["recovery_frames"] = c.tracking.recovery_frames;
   s["translation_model"] = to_string(c.inertial.translation);

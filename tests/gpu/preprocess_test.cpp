@@ -257,6 +257,21 @@ TEST_F(GpuTest, ReferencePyramidFromGpuMapsMatchesTheHostRule) {
     expect_vectors_near(gpu->vertices[l], host[l].vertices, 1e-6, "reference vertices");
     expect_vectors_near(gpu->normals[l], host[l].normals, 1e-6, "reference normals");
   }
+  // Half-size maps (tracking at level 1) fill level 1 and the levels below it.
+  const auto half =
+      build_map_pyramid(gpu->vertices[1], gpu->normals[1], 2, config.max_jump_fraction);
+  const auto half_bytes = gpu->vertices[1].data.size() * sizeof(Eigen::Vector4f);
+  ASSERT_TRUE(v->upload(gpu->vertices[1].data.data(), half_bytes).ok());
+  ASSERT_TRUE(n->upload(gpu->normals[1].data.data(), half_bytes).ok());
+  ASSERT_TRUE(seq->begin().ok());
+  reference->record_maps_from(*seq, *v, *n, 1);
+  ASSERT_TRUE(seq->submit_and_wait().ok());
+  auto gpu_half = reference->download();
+  ASSERT_TRUE(gpu_half.ok());
+  for (std::size_t l = 1; l < 3; ++l) {
+    expect_vectors_near(gpu_half->vertices[l], half[l - 1].vertices, 1e-6, "half-size vertices");
+    expect_vectors_near(gpu_half->normals[l], half[l - 1].normals, 1e-6, "half-size normals");
+  }
 }
 
 TEST_F(GpuTest, WrongImageSizeIsAnError) {

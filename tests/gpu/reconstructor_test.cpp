@@ -204,6 +204,29 @@ TEST_F(ReconstructorTest, TheSeedGateLeavesWellTrackedFramesAlone) {
   EXPECT_LT(ate(rec.trajectory()), 0.01);
 }
 
+// Tracking at half size (ReconstructorConfig::tracking_level 1): ICP and the model raycast run on
+// the pyramid's level 1 and coarser only, fusion takes the full frame, and the room still tracks.
+// At this test's 160x120 the default on any device is the full frame (no level is 320x240).
+TEST_F(ReconstructorTest, TracksAtHalfSizeWhileFusingTheFullFrame) {
+  EXPECT_EQ(make(config(true, 2)).tracking_level(), 0);
+  ReconstructorConfig c = config(true, 2);
+  c.tracking_level = 1;
+  Reconstructor rec = make(c);
+  EXPECT_EQ(rec.tracking_level(), 1);
+  for (const Frame& f : frames_) {
+    auto r = rec.track_and_fuse(f.timestamp, f.depth, nullptr, f.imu);
+    ASSERT_TRUE(r.ok()) << r.error().describe();
+    ASSERT_EQ(r->status, TrackingStatus::kTracking) << "t=" << f.timestamp << ": " << r->icp.reason;
+    for (const KernelTiming& k : r->timings.kernels) {
+      EXPECT_EQ(k.kernel.find("icp_associate[0]"), std::string::npos);
+      EXPECT_EQ(k.kernel.find("reference_copy[0]"), std::string::npos);
+    }
+  }
+  EXPECT_LT(ate(rec.trajectory()), 0.01);
+  c.tracking_level = 3;  // the pyramid has 3 levels
+  EXPECT_FALSE(Reconstructor::create(c).ok());
+}
+
 TEST_F(ReconstructorTest, BaselineWithoutImuTracksWithMoreIterations) {
   Reconstructor rec = make(config(false, 30));
   std::vector<FrameResult> results;

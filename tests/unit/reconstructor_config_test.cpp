@@ -27,6 +27,14 @@ TEST(ReconstructorConfig, RejectsSettingsOutOfRange) {
   EXPECT_NE(s.error().message.find("constant_velocity_pairs"), std::string::npos);
   c.tracking.constant_velocity_pairs = 0;  // the previous pose as the seed
   EXPECT_TRUE(c.validate().ok());
+  for (const int level : {-2, c.preprocess.levels}) {
+    c.tracking_level = level;
+    s = c.validate();
+    ASSERT_FALSE(s.ok());
+    EXPECT_NE(s.error().message.find("tracking_level"), std::string::npos);
+  }
+  c.tracking_level = c.preprocess.levels - 1;
+  EXPECT_TRUE(c.validate().ok());
   c.smoothing.gravity_sigma_scale = 0;
   s = c.validate();
   ASSERT_FALSE(s.ok());

@@ -99,6 +99,11 @@ struct LossSmoothingConfig {
       0.01;  // m per axis: a partial frame's move late in a long loss; 0: off
 };
 
+/// The smallest tracking size (px) chosen by default on a CPU device: 640x480 frames track at
+/// 320x240 there (ReconstructorConfig::tracking_level).
+inline constexpr int kMinCpuTrackingWidth = 320;
+inline constexpr int kMinCpuTrackingHeight = 240;
+
 struct ReconstructorConfig {
   Intrinsics intrinsics;  // of the depth camera; frames must have its size
   PreprocessConfig preprocess;
@@ -111,6 +116,10 @@ struct ReconstructorConfig {
   RecoveryConfig recovery;
   LossSmoothingConfig smoothing;
   DeviceOptions device;
+  /// Pyramid level that ICP and the model raycast run at (0: the full frame, 1: half size);
+  /// fusion always takes the full frame. -1: by device, the full frame on a GPU and on a CPU
+  /// device the coarsest level of at least kMinCpuTrackingWidth x Height (bench/README.md).
+  int tracking_level = -1;
   Eigen::Isometry3d initial_pose = Eigen::Isometry3d::Identity();  // T_world_camera of frame 0, m
 
   /// Fails naming the first setting out of range.
@@ -227,6 +236,9 @@ class Reconstructor {
   const Trajectory& trajectory() const;
   const ReconstructorConfig& config() const;
   const DeviceInfo& device() const;
+  /// The pyramid level ICP and the model raycast run at (ReconstructorConfig::tracking_level,
+  /// resolved for the device).
+  int tracking_level() const;
   std::uint32_t allocated_blocks() const;
   std::uint64_t memory_bytes() const;
   std::uint32_t validation_error_count() const;

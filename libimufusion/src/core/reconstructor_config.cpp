@@ -21,6 +21,9 @@ Status ReconstructorConfig::validate() const {
   if (tracking.recovery_frames < 1)
     return bad("tracking.recovery_frames must be at least 1, got " +
                std::to_string(tracking.recovery_frames));
+  if (tracking_level < -1 || tracking_level >= preprocess.levels)
+    return bad("tracking_level must be -1 (by device) or a pyramid level below " +
+               std::to_string(preprocess.levels) + ", got " + std::to_string(tracking_level));
   if (tracking.prediction_window < 0)
     return bad("tracking.prediction_window must be non-negative, got " +
                std::to_string(tracking.prediction_window));

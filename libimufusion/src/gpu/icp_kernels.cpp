@@ -115,13 +115,20 @@ Result<NormalEquations> IcpKernels::read_equations() const {
 GpuNormalEquationSource::GpuNormalEquationSource(IcpKernels& kernels, CommandSequence& seq,
                                                  const Preprocessor& current,
                                                  const Preprocessor& reference,
-                                                 std::vector<KernelTiming>* timings)
-    : kernels_(kernels), seq_(seq), current_(current), reference_(reference), timings_(timings) {}
+                                                 std::vector<KernelTiming>* timings,
+                                                 int first_level)
+    : kernels_(kernels),
+      seq_(seq),
+      current_(current),
+      reference_(reference),
+      timings_(timings),
+      first_level_(first_level) {}
 
 Result<NormalEquations> GpuNormalEquationSource::evaluate(int level,
                                                           const Eigen::Isometry3d& T_ref_cur,
                                                           float max_distance,
                                                           float min_normal_cos) {
+  level += first_level_;
   const Intrinsics& kc = current_.intrinsics(level);
   const Intrinsics& kr = reference_.intrinsics(level);
   const IcpMaps cur{&current_.vertices(level), &current_.normals(level), kc.width, kc.height};

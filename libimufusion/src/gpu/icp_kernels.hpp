@@ -55,9 +55,11 @@ class IcpKernels {
 /// host ICP and the kernels. The maps are read at evaluate() time.
 class GpuNormalEquationSource : public NormalEquationSource {
  public:
+  /// ICP's level 0 is the pyramids' `first_level` (the tracking resolution).
   GpuNormalEquationSource(IcpKernels& kernels, CommandSequence& seq, const Preprocessor& current,
-                          const Preprocessor& reference, std::vector<KernelTiming>* timings);
-  int levels() const override { return current_.config().levels; }
+                          const Preprocessor& reference, std::vector<KernelTiming>* timings,
+                          int first_level = 0);
+  int levels() const override { return current_.config().levels - first_level_; }
   Result<NormalEquations> evaluate(int level, const Eigen::Isometry3d& T_ref_cur,
                                    float max_distance, float min_normal_cos) override;
 
@@ -67,6 +69,7 @@ class GpuNormalEquationSource : public NormalEquationSource {
   const Preprocessor& current_;
   const Preprocessor& reference_;
   std::vector<KernelTiming>* timings_;
+  int first_level_ = 0;
 };
 
 }  // namespace imufusion::gpu

@@ -141,10 +141,12 @@ Status Preprocessor::upload_maps(const Vec4Image& vertices, const Vec4Image& nor
 }
 
 void Preprocessor::record_maps_from(CommandSequence& seq, const Buffer& vertices,
-                                    const Buffer& normals) const {
-  seq.copy(vertices, vertices_[0], vertices_[0].size(), "reference_copy[0]");
-  seq.copy(normals, normals_[0], normals_[0].size(), "reference_copy[0]");
-  for (int level = 1; level < config_.levels; ++level) {
+                                    const Buffer& normals, int first_level) const {
+  const auto first = static_cast<std::size_t>(first_level);
+  const std::string label = level_label("reference_copy", first_level);
+  seq.copy(vertices, vertices_[first], vertices_[first].size(), label);
+  seq.copy(normals, normals_[first], normals_[first].size(), label);
+  for (int level = first_level + 1; level < config_.levels; ++level) {
     const auto l = static_cast<std::size_t>(level);
     const Intrinsics& src = levels_[l - 1];
     const Intrinsics& dst = levels_[l];

@@ -27,7 +27,9 @@ class Preprocessor {
   /// Records the copy of full-resolution maps already on the GPU (a model raycast, float4 per
   /// pixel) into level 0 and the coarser levels built from them on the GPU by upload_maps' rule
   /// (shaders/map_pyramid_down.comp): no host round trip. The depth buffers are left as they were.
-  void record_maps_from(CommandSequence& seq, const Buffer& vertices, const Buffer& normals) const;
+  /// `first_level`: the maps are of that level's size and fill it and the coarser ones.
+  void record_maps_from(CommandSequence& seq, const Buffer& vertices, const Buffer& normals,
+                        int first_level = 0) const;
   /// Number of dispatches record_maps_from() adds.
   std::uint32_t maps_dispatch_count() const;
   /// Records every preprocessing dispatch into `seq` (between begin and submit).

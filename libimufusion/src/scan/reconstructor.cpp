@@ -79,11 +79,11 @@ Status Reconstructor::Impl::raycast_model(const Intrinsics& k,
 Status Reconstructor::Impl::update_reference(const Eigen::Isometry3d& T_world_camera,
                                              FrameTimings& timings) {
   const auto t0 = Clock::now();
-  const Intrinsics& k = config.intrinsics;
+  const Intrinsics k = config.intrinsics.at_level(tracking_level);
   IMUFUSION_RETURN_IF_ERROR(
       raycast_model(k, T_world_camera, depth_range(), model, &timings.kernels));
   IMUFUSION_RETURN_IF_ERROR(reference_seq.begin());
-  reference.record_maps_from(reference_seq, model.vertices, model.normals);
+  reference.record_maps_from(reference_seq, model.vertices, model.normals, tracking_level);
   auto t = reference_seq.submit_and_wait();
   if (!t) return t.error();
   timings.kernels.insert(timings.kernels.end(), t->begin(), t->end());
@@ -96,7 +96,8 @@ Status Reconstructor::Impl::update_reference(const Eigen::Isometry3d& T_world_ca
 // The first frame against the model it alone made, at its own pose: what an aligned frame of
 // this sensor and scene pairs, the pairing reference until tracked frames replace it.
 Status Reconstructor::Impl::pair_with_own_model(FrameTimings& timings) {
-  gpu::GpuNormalEquationSource source(icp_kernels, icp_seq, current, reference, &timings.kernels);
+  gpu::GpuNormalEquationSource source(icp_kernels, icp_seq, current, reference, &timings.kernels,
+                                      tracking_level);
   const float min_cos =
       static_cast<float>(std::cos(config.icp.max_normal_angle_deg[0] * M_PI / 180.0));
   auto eq = source.evaluate(0, Eigen::Isometry3d::Identity(), config.icp.max_distance[0], min_cos);
@@ -128,7 +129,7 @@ IcpReliabilityThresholds Reconstructor::Impl::reliability(const DepthImage& dept
 // the frame's median depth, is within the reach.
 int Reconstructor::Impl::seed_start_level(const MotionPrediction& prediction,
                                           const DepthImage& depth) const {
-  const int coarsest = config.preprocess.levels - 1;
+  const int coarsest = config.preprocess.levels - 1 - tracking_level;  // ICP's levels
   const double reach = config.imu.seed_reach_pixels;
   std::vector<double> z;
   const double scale = 1.0 / depth.depth_scale;
@@ -138,7 +139,8 @@ int Reconstructor::Impl::seed_start_level(const MotionPrediction& prediction,
   }
   if (z.empty()) return coarsest;
   std::nth_element(z.begin(), z.begin() + static_cast<std::ptrdiff_t>(z.size() / 2), z.end());
-  const double f = std::max(config.intrinsics.fx, config.intrinsics.fy);
+  const double f =
+      std::ldexp(std::max(config.intrinsics.fx, config.intrinsics.fy), -tracking_level);
   const double motion =
       3 * f * (prediction.rotation_sigma + prediction.translation_sigma / z[z.size() / 2]);
   int level = 0;
@@ -184,6 +186,8 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthImage& depth,
     icp.correlated_pixels = std::max(1, window * window);
     if (seed_gate_holding) icp.seed_gate_sigmas = icp.seed_gate_hold_sigmas;
   }
+  // Pixels sharing one depth error at ICP's level 0: a quarter per pyramid level coarser.
+  icp.correlated_pixels = std::max(1.0, std::ldexp(icp.correlated_pixels, -2 * tracking_level));
   // With the gyro's rotation but no predicted translation (the first tracked frames), the seed
   // is still within the finest level's reach while tracking (bench/README.md: room and fast
   // scans, 2 iterations per frame).
@@ -200,7 +204,8 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthImage& depth,
     return c;
   };
   if (settling) icp = settling_budget(icp);
-  gpu::GpuNormalEquationSource source(icp_kernels, icp_seq, current, reference, &timings.kernels);
+  gpu::GpuNormalEquationSource source(icp_kernels, icp_seq, current, reference, &timings.kernels,
+                                      tracking_level);
   const Eigen::Isometry3d T_ref_seed = T_world_reference.inverse() * T_world_seed;
   auto result = run_icp(source, icp, T_ref_seed);
   // A tracked frame that the per-frame budget left unconverged and unreliable is given the
@@ -390,6 +395,23 @@ Reconstructor::~Reconstructor() = default;
 Reconstructor::Reconstructor(Reconstructor&&) noexcept = default;
 Reconstructor& Reconstructor::operator=(Reconstructor&&) noexcept = default;
 
+namespace {
+
+// ReconstructorConfig::tracking_level -1: on a CPU device the coarsest level of at least
+// 320x240 (half of a 640x480 frame), on a GPU the full frame.
+int resolve_tracking_level(const ReconstructorConfig& config, DeviceType device) {
+  if (config.tracking_level >= 0) return config.tracking_level;
+  if (device != DeviceType::kCpu) return 0;
+  int level = 0;
+  while (level + 1 < config.preprocess.levels &&
+         config.intrinsics.at_level(level + 1).width >= kMinCpuTrackingWidth &&
+         config.intrinsics.at_level(level + 1).height >= kMinCpuTrackingHeight)
+    ++level;
+  return level;
+}
+
+}  // namespace
+
 Result<Reconstructor> Reconstructor::create(const ReconstructorConfig& config) {
   IMUFUSION_RETURN_IF_ERROR(config.validate());
   auto context = gpu::Context::create(config.device);
@@ -401,6 +423,7 @@ Result<Reconstructor> Reconstructor::create(const ReconstructorConfig& config) {
   m.machine = TrackingStateMachine(config.tracking);
   m.pairing = PairingReference(config.tracking);
   m.prediction_calibration = PredictionCalibration(config.tracking);
+  m.tracking_level = resolve_tracking_level(config, m.context->info().type);
   const Intrinsics& k = config.intrinsics;
   const auto pixels = static_cast<std::size_t>(k.width) * k.height;
   for (gpu::Preprocessor* p : {&m.current, &m.reference}) {
@@ -596,6 +619,7 @@ Status Reconstructor::reset() {
 const Trajectory& Reconstructor::trajectory() const { return impl_->trajectory; }
 const ReconstructorConfig& Reconstructor::config() const { return impl_->config; }
 const DeviceInfo& Reconstructor::device() const { return impl_->context->info(); }
+int Reconstructor::tracking_level() const { return impl_->tracking_level; }
 std::uint32_t Reconstructor::allocated_blocks() const { return impl_->volume.allocated_blocks(); }
 std::uint64_t Reconstructor::memory_bytes() const {
   return impl_->volume.config().reserved_bytes();

@@ -122,6 +122,7 @@ struct Reconstructor::Impl {
   // frame is gated at seed_gate_hold_sigmas.
   bool seed_gate_holding = false;
   double frame_interval = 0;  // s, from the previous frame to the one being aligned
+  int tracking_level = 0;     // ReconstructorConfig::tracking_level resolved for the device
   // Without the IMU (TrackingConfig::constant_velocity_pairs): the newest frames tracked in a
   // row, oldest first, at most constant_velocity_pairs + 1.
   std::deque<StampedPose> tracked_run;
