@@ -1,13 +1,18 @@
-// Mesh files found by the fuzz harnesses of tests/fuzz (ply_fuzz, gltf_fuzz): each is refused
-// with a parse error, or read into a mesh that check_mesh accepts, never read out of bounds.
+// Mesh files found by the fuzz harnesses of tests/fuzz (ply_fuzz, gltf_fuzz), and a glTF buffer
+// that is a FIFO: each is refused with an error, or read into a mesh that check_mesh accepts;
+// never read out of bounds, never waited on.
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
+#include <future>
 #include <limits>
 #include <string>
 #include <vector>
@@ -59,11 +64,12 @@ std::string base64(const std::string& bytes) {
 }
 
 // One triangle as glTF JSON, its buffer a data URI: positions, then normals (9 floats each).
-std::string triangle_gltf(const std::vector<float>& positions, const std::vector<float>& normals) {
+std::string triangle_gltf(const std::vector<float>& positions, const std::vector<float>& normals,
+                          const std::string& buffer_uri = "") {
   const std::string buffer = raw(positions) + raw(normals);
-  return R"({"asset":{"version":"2.0"},"buffers":[{"byteLength":72,"uri":)"
-         R"("data:application/octet-stream;base64,)" +
-         base64(buffer) +
+  return R"({"asset":{"version":"2.0"},"buffers":[{"byteLength":72,"uri":")" +
+         (buffer_uri.empty() ? "data:application/octet-stream;base64," + base64(buffer)
+                             : buffer_uri) +
          R"("}],"bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},)"
          R"({"buffer":0,"byteOffset":36,"byteLength":36}],"accessors":[)"
          R"({"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"},)"
@@ -151,6 +157,32 @@ TEST_F(MeshReadHostile, GltfNormalsBeyondReasonReadAsZero) {
   ASSERT_TRUE(mesh.ok()) << mesh.error().describe();
   EXPECT_TRUE(check_mesh(*mesh).ok()) << check_mesh(*mesh).error().describe();
   EXPECT_EQ(mesh->normals[1], Eigen::Vector3f(0, 0, 1));
+}
+
+TEST_F(MeshReadHostile, GltfBufferThatIsAFifoIsRefusedWithoutWaiting) {
+  // tinygltf opened external buffers itself: a FIFO blocked the reader until a writer came.
+  const fs::path fifo = dir_ / "buffer.bin";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const std::vector<float> triangle{0, 0, 0, 1, 0, 0, 0, 1, 0};
+  const fs::path gltf = write("fifo.gltf", triangle_gltf(triangle, triangle, "buffer.bin"));
+  auto read = std::async(std::launch::async, [&] { return read_gltf(gltf); });
+  if (read.wait_for(std::chrono::seconds(20)) != std::future_status::ready) {
+    const int fd = ::open(fifo.c_str(), O_WRONLY | O_NONBLOCK);  // a writer that closes at once
+    if (fd >= 0) ::close(fd);
+    read.wait();
+    FAIL() << "read_gltf blocked on " << fifo;
+  }
+  const auto mesh = read.get();
+  ASSERT_FALSE(mesh.ok());
+  EXPECT_NE(mesh.error().message.find("not a regular file"), std::string::npos)
+      << mesh.error().message;
+
+  fs::remove(fifo);  // the same buffer as a regular file is read
+  write("buffer.bin", raw(triangle) + raw(std::vector<float>{0, 0, 1, 0, 0, 1, 0, 0, 1}));
+  const auto regular = read_gltf(gltf);
+  ASSERT_TRUE(regular.ok()) << regular.error().describe();
+  EXPECT_EQ(regular->vertices.size(), 3u);
+  EXPECT_EQ(regular->normals[2], Eigen::Vector3f(0, 0, 1));
 }
 
 }  // namespace

@@ -371,6 +371,38 @@ Status append_primitive(const tinygltf::Model& model, const tinygltf::Primitive&
   return append_triangles(*indices, what, base, *n, mesh);
 }
 
+// tinygltf's file callbacks for external buffers, through read_file_bytes: regular files only
+// (its own opened a FIFO and waited for a writer), up to the size limit.
+bool file_exists(const std::string& path, void*) {
+  std::error_code ec;
+  return std::filesystem::exists(path, ec);
+}
+
+bool read_whole_file(std::vector<unsigned char>* out, std::string* error, const std::string& path,
+                     void*) {
+  auto bytes = io::read_file_bytes(path);
+  if (!bytes.ok()) {
+    if (error != nullptr) *error += bytes.error().message + "\n";
+    return false;
+  }
+  if (bytes->empty()) {
+    if (error != nullptr) *error += path + ": empty file\n";
+    return false;
+  }
+  *out = std::move(*bytes);
+  return true;
+}
+
+tinygltf::FsCallbacks file_callbacks() {
+  tinygltf::FsCallbacks callbacks{};
+  callbacks.FileExists = file_exists;
+  callbacks.ExpandFilePath = tinygltf::ExpandFilePath;
+  callbacks.ReadWholeFile = read_whole_file;
+  callbacks.WriteWholeFile = tinygltf::WriteWholeFile;
+  callbacks.user_data = nullptr;
+  return callbacks;
+}
+
 }  // namespace
 
 Status write_glb(const std::filesystem::path& path, const Mesh& mesh) {
@@ -407,6 +439,7 @@ Result<Mesh> parse_gltf(const std::vector<std::uint8_t>& bytes, bool binary,
   }
   tinygltf::Model model;
   tinygltf::TinyGLTF loader;
+  loader.SetFsCallbacks(file_callbacks());
   std::string error, warning;
   const auto size = static_cast<unsigned int>(bytes.size());
   const bool loaded = binary
