@@ -168,6 +168,28 @@ TEST_F(InfoTool, MissingIntrinsicsIsNotScannable) {
   EXPECT_NE(result.err.find("calibration.txt"), std::string::npos) << result.err;
 }
 
+TEST_F(InfoTool, ImagesTooSmallForTheScansPyramidAreNotScannable) {
+  // 6x4 decodes and has plausible intrinsics, but the scan's 3 pyramid levels need 8x8: the
+  // scan fails ("cannot hold 3 pyramid levels"), so info must not call it scannable.
+  const fs::path dir = root_ / "tiny";
+  auto writer = SequenceWriter::create(dir);
+  ASSERT_TRUE(writer.ok());
+  for (int i = 0; i < 3; ++i) {
+    DepthImage depth;
+    depth.width = 6;
+    depth.height = 4;
+    depth.data.assign(6 * 4, static_cast<std::uint16_t>(5000));
+    ASSERT_TRUE(writer->add_depth(10.0 + i / 30.0, depth).ok());
+  }
+  ASSERT_TRUE(writer->set_intrinsics(Intrinsics{5, 5, 3, 2, 0, 0}).ok());
+  ASSERT_TRUE(writer->finish().ok());
+  const ToolRun result = run(quoted(dir));
+  EXPECT_EQ(result.exit_code, 1) << result.out;
+  EXPECT_NE(result.out.find("NOT scannable"), std::string::npos) << result.out;
+  EXPECT_NE(result.err.find("6x4 is too small to scan"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("8x8"), std::string::npos) << result.err;
+}
+
 TEST_F(InfoTool, NoImuAndGapsAreReportedButScannable) {
   const fs::path dir = write_sequence("no_imu", /*with_imu=*/false, /*gap=*/true);
   const ToolRun result = run(quoted(dir));

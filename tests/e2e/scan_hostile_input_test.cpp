@@ -1,7 +1,8 @@
 // The tools against hostile input: bytes that are not UTF-8 in paths, image names and UDP
 // datagrams; IMU samples no sensor gives (rates, forces, a jump in time) in imu.txt and over
-// UDP; an imu.txt that covers no frame; a FIFO or a device where a file belongs; intrinsics no
-// camera has. Each ends in a clear message or a scan that goes on, never in an abort or a hang.
+// UDP; an imu.txt that covers no frame; a FIFO or a device where a file or an image belongs;
+// intrinsics no camera has. Each ends in a clear message or a scan that goes on, never in an abort
+// or a hang.
 
 #include <gtest/gtest.h>
 #include <sys/stat.h>
@@ -228,6 +229,48 @@ TEST_F(ScanHostileInput, AFifoOrADeviceWhereAFileBelongsIsRefusedPromptly) {
   info = tool("imufusion-info", seq.string());
   EXPECT_EQ(info.exit_code, 1) << info.err;
   EXPECT_NE(info.out.find("NOT scannable"), std::string::npos) << info.out;
+}
+
+TEST_F(ScanHostileInput, ADepthImageThatIsAFifoOrADeviceIsNamedAsOne) {
+  const fs::path seq = synthesize(scratch_.path(), "room", 4, 55);
+  std::string second;  // the second frame's PNG, as depth.txt names it
+  edit_lines(seq / "depth.txt", [&](int i, const std::string& line) {
+    if (i == 1) second = line.substr(line.find(' ') + 1);
+    return line;
+  });
+  ASSERT_FALSE(second.empty());
+  const fs::path image = seq / second;
+  for (const bool fifo : {true, false}) {
+    fs::remove(image);
+    if (fifo) {
+      ASSERT_EQ(::mkfifo(image.c_str(), 0600), 0);
+    } else {
+      fs::create_symlink("/dev/zero", image);
+    }
+    const std::string expected = image.string() + " is not a regular file";
+    const auto info = tool("imufusion-info", seq.string());
+    EXPECT_EQ(info.exit_code, 1) << info.err;
+    EXPECT_NE(info.out.find("NOT scannable"), std::string::npos) << info.out;
+    EXPECT_NE(info.err.find(expected), std::string::npos) << info.err;
+    const auto scanned =
+        scan_within_deadline(seq.string() + " --out " + path("out").string() + " --quiet");
+    EXPECT_EQ(scanned.exit_code, 1) << scanned.err;
+    EXPECT_NE(scanned.err.find(expected), std::string::npos) << scanned.err;
+  }
+}
+
+TEST_F(ScanHostileInput, AnImuTxtOverItsSizeLimitIsRefusedUnread) {
+  const fs::path seq = synthesize(scratch_.path(), "room", 4, 57);
+  // Sparse: 513 MiB of length, no data; the text limit is 512 MiB.
+  fs::resize_file(seq / "imu.txt", std::uintmax_t{513} << 20);
+  const auto info = tool("imufusion-info", seq.string());
+  EXPECT_EQ(info.exit_code, 1) << info.err;
+  EXPECT_NE(info.out.find("NOT scannable"), std::string::npos) << info.out;
+  EXPECT_NE(info.err.find("imu.txt: larger than"), std::string::npos) << info.err;
+  const auto scanned =
+      scan_within_deadline(seq.string() + " --out " + path("out").string() + " --quiet");
+  EXPECT_EQ(scanned.exit_code, 1) << scanned.err;
+  EXPECT_NE(scanned.err.find("imu.txt: larger than"), std::string::npos) << scanned.err;
 }
 
 TEST_F(ScanHostileInput, IntrinsicsNoCameraHasAreRefusedNamingTheValue) {

@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "imufusion/image_io.hpp"
+#include "io/png_codec.hpp"
 #include "io_test_fixtures.hpp"
 
 #define STB_IMAGE_WRITE_IMPLEMENTATION
@@ -159,6 +160,31 @@ TEST(DepthPng, RejectsImageWhoseDataDoesNotMatchItsSize) {
   ASSERT_FALSE(status.ok());
   EXPECT_EQ(status.error().code, ErrorCode::kInvalidArgument);
   EXPECT_FALSE(std::filesystem::exists(dir / "d.png"));
+}
+
+TEST(DepthPng, AHeaderDeclaringMoreThanTheFileCanHoldIsRefusedUnallocated) {
+  // png_fuzz: a file of about 70 bytes declaring 10000x10000 pixels had 200 MB allocated for them
+  // before libpng found the data missing. DEFLATE expands 1032:1 at most.
+  std::vector<char> png =
+      testing::encode_png_independently(2, 2, 16, 0, std::vector<std::uint8_t>(8));
+  const std::uint8_t size[8] = {0, 0, 0x27, 0x10, 0, 0, 0x27, 0x10};  // 10000 x 10000, big-endian
+  std::copy(size, size + 8, png.begin() + 16);
+  std::uint32_t crc = 0xFFFFFFFFu;  // the IHDR chunk's CRC over its type and data (bytes 12..28)
+  for (int i = 12; i < 29; ++i) {
+    crc ^= static_cast<std::uint8_t>(png[i]);
+    for (int k = 0; k < 8; ++k) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
+  }
+  crc ^= 0xFFFFFFFFu;
+  for (int b = 0; b < 4; ++b) png[29 + b] = static_cast<char>(crc >> (24 - 8 * b));
+  const std::vector<std::uint8_t> bytes(png.begin(), png.end());
+  auto depth = io::decode_depth_png(bytes, "claims.png", 1000.0);
+  ASSERT_FALSE(depth.ok());
+  EXPECT_EQ(depth.error().code, ErrorCode::kParseError);
+  EXPECT_NE(depth.error().message.find("cannot hold the 10000x10000 image"), std::string::npos)
+      << depth.error().message;
+  auto color = io::decode_color_png(bytes, "claims.png");
+  ASSERT_FALSE(color.ok());
+  EXPECT_NE(color.error().message.find("cannot hold"), std::string::npos) << color.error().message;
 }
 
 TEST(AtomicWrite, FailedWriteKeepsExistingFile) {

@@ -36,7 +36,7 @@ TEST(SequenceCheck, CoverageOfImuAndGroundTruth) {
   for (int i = 0; i < 4; ++i) {
     const std::string name = "depth/" + std::to_string(i) + ".png";
     std::filesystem::create_directories(dir / "depth");
-    ASSERT_TRUE(write_depth_png(dir / name, testing::make_depth(4, 3, i)).ok());
+    ASSERT_TRUE(write_depth_png(dir / name, testing::make_depth(8, 8, i)).ok());
     depth += std::to_string(i) + " " + name + "\n";
   }
   write_text(dir / "depth.txt", depth);
@@ -62,7 +62,7 @@ TEST(SequenceCheck, CoverageOfImuAndGroundTruth) {
 TEST(SequenceCheck, CollectsEveryProblem) {
   TempDir dir;
   std::filesystem::create_directories(dir / "depth");
-  ASSERT_TRUE(write_depth_png(dir / "depth/a.png", testing::make_depth(4, 3, 1)).ok());
+  ASSERT_TRUE(write_depth_png(dir / "depth/a.png", testing::make_depth(8, 8, 1)).ok());
   write_text(dir / "depth/b.png", "not a png");
   write_text(dir / "depth.txt", "1 depth/a.png\n2 depth/b.png\n3 depth/missing.png\n");
   write_text(dir / "imu.txt", "1 0 0 0 0 0\n");

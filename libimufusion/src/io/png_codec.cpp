@@ -14,6 +14,9 @@ namespace {
 
 // Larger images are refused before allocation: a corrupt header must not request gigabytes.
 constexpr std::int64_t kMaxPixels = std::int64_t{1} << 27;
+// DEFLATE expands at most 1032:1 (a 258-byte match in two bits): a file of N bytes holds at most
+// 1032 N bytes of image data, and a header declaring more is corrupt.
+constexpr std::uint64_t kMaxDeflateRatio = 1032;
 
 constexpr std::uint8_t kPngSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
 
@@ -129,6 +132,7 @@ class PngReader {
   PngReader& operator=(const PngReader&) = delete;
 
   bool valid() const { return info_ != nullptr; }
+  std::size_t file_size() const { return state_.size; }
   png_structp png() { return png_; }
   png_infop info() { return info_; }
   std::string message() const { return state_.message; }
@@ -165,6 +169,16 @@ Result<PngHeader> decode_header(PngReader& reader, const std::filesystem::path& 
     return corrupt(path, reader);
   }
   IMUFUSION_RETURN_IF_ERROR(check_size(path, width, height));
+  // Checked before the image is allocated: a 60-byte file must not claim 10000x10000 pixels.
+  const std::uint64_t data_bytes =
+      std::uint64_t{png_get_rowbytes(reader.png(), reader.info())} * height;
+  if (data_bytes > kMaxDeflateRatio * reader.file_size()) {
+    return make_error(ErrorCode::kParseError,
+                      path.string() + ": corrupt or truncated PNG (its " +
+                          std::to_string(reader.file_size()) + " bytes cannot hold the " +
+                          std::to_string(width) + "x" + std::to_string(height) +
+                          " image its header declares)");
+  }
   return PngHeader{static_cast<int>(width), static_cast<int>(height), bit_depth, color_type};
 }
 

@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "imufusion/image_io.hpp"
+#include "imufusion/preprocess.hpp"
 
 namespace imufusion::io {
 namespace {
@@ -142,6 +143,24 @@ void check_ground_truth(SequenceCheck& check, const std::vector<double>& depth_s
   }
 }
 
+// The scan's depth pyramid (PreprocessConfig::levels, the tools' setting) halves the image
+// levels - 1 times and needs 2^levels pixels on each side: a smaller image cannot be scanned.
+void check_size_for_pyramid(SequenceCheck& check) {
+  const SequenceInfo& info = check.index.info;
+  const int levels = PreprocessConfig{}.levels;
+  const int minimum = 1 << levels;
+  if (info.depth.empty() || info.width <= 0 || info.height <= 0 ||
+      (info.width >= minimum && info.height >= minimum)) {
+    return;
+  }
+  check.index.problems.push_back(make_error(
+      ErrorCode::kUnsupported,
+      info.depth.front().path.string() + ": image size " + std::to_string(info.width) + "x" +
+          std::to_string(info.height) + " is too small to scan: the depth pyramid's " +
+          std::to_string(levels) + " levels need " + std::to_string(minimum) + "x" +
+          std::to_string(minimum) + " pixels or more"));
+}
+
 }  // namespace
 
 StreamTiming stream_timing(const std::vector<double>& stamps) {
@@ -188,6 +207,7 @@ SequenceCheck check_sequence(const std::filesystem::path& directory,
   for (const ImageIndexEntry& entry : info.depth) depth_stamps.push_back(entry.timestamp);
   check.depth = stream_timing(depth_stamps);
   check_images(check, progress);
+  check_size_for_pyramid(check);
   if (!check.depth.gaps.empty()) {
     check.warnings.push_back("depth.txt has " + std::to_string(check.depth.gaps.size()) +
                              " gaps (dropped frames?): tracking must bridge them");

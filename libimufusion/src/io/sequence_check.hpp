@@ -1,7 +1,8 @@
 #pragma once
 // A full check of a recorded sequence for imufusion-info: the text-side problems of
-// load_sequence_index, every depth PNG decoded, stream rates and gaps, colour/IMU/ground-truth
-// coverage of the depth frames, and a verdict on whether it can be scanned.
+// load_sequence_index, every depth PNG decoded, an image size the scan's pyramid can hold,
+// stream rates and gaps, colour/IMU/ground-truth coverage of the depth frames, and a verdict on
+// whether it can be scanned.
 
 #include <cstddef>
 #include <filesystem>
@@ -54,7 +55,8 @@ struct SequenceCheck {
   bool ground_truth_spans_frames = false;    // first and last depth stamp inside the GT span
   /// Things that do not prevent a scan but may spoil it, one sentence each.
   std::vector<std::string> warnings;
-  /// False when a scan cannot run: any problem, or no intrinsics.
+  /// False when a scan cannot run: any problem (an image too small for the pyramid among them),
+  /// or no intrinsics.
   bool scannable = false;
 };
 

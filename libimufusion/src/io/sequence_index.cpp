@@ -24,6 +24,23 @@ double focal_for_fov(int pixels, double fov_deg) {
   return pixels / (2.0 * std::tan(0.5 * fov_deg * 3.14159265358979323846 / 180.0));
 }
 
+// An image an index lists must be a regular file (symbolic links followed): a FIFO would block
+// its reader and a device never end. `where` prefixes the message.
+Status check_image_file(const fs::path& image, const std::string& where) {
+  std::error_code ec;
+  const fs::file_status status = fs::status(image, ec);
+  if (fs::is_regular_file(status)) return {};
+  if (!fs::exists(status)) {
+    return make_error(ErrorCode::kNotFound, where + image.string() + " does not exist");
+  }
+  return make_error(ErrorCode::kInvalidArgument,
+                    where + image.string() +
+                        (fs::is_directory(status)
+                             ? " is not a regular file (a directory)"
+                             : " is not a regular file (a FIFO, device or socket); images are "
+                               "read from regular files only"));
+}
+
 class Loader {
  public:
   Loader(const fs::path& directory, const SequenceOptions& options)
@@ -192,10 +209,8 @@ class Loader {
         continue;
       }
       ImageIndexEntry entry{timestamp, line.fields[1], dir_ / line.fields[1]};
-      std::error_code ec;
-      if (!fs::is_regular_file(entry.path, ec)) {
-        add(make_error(ErrorCode::kNotFound,
-                       where(path, line.number) + entry.path.string() + " does not exist"));
+      if (auto status = check_image_file(entry.path, where(path, line.number)); !status.ok()) {
+        add(status.error());
         continue;
       }
       entries.push_back(std::move(entry));

@@ -245,14 +245,20 @@ Result<std::size_t> append_positions(const tinygltf::Model& model,
   }
   const std::size_t n = positions->count();
   for (std::size_t v = 0; v < n; ++v) {
-    mesh.vertices.emplace_back(static_cast<float>(positions->at(v, 0)),
-                               static_cast<float>(positions->at(v, 1)),
-                               static_cast<float>(positions->at(v, 2)));
+    const Eigen::Vector3f p(static_cast<float>(positions->at(v, 0)),
+                            static_cast<float>(positions->at(v, 1)),
+                            static_cast<float>(positions->at(v, 2)));
+    if (!p.allFinite()) {
+      return make_error(ErrorCode::kParseError,
+                        what + ": POSITION " + std::to_string(v) + " is not finite");
+    }
+    mesh.vertices.push_back(p);
   }
   return n;
 }
 
-// The NORMAL accessor `index` (VEC3, n of them) into mesh.normals from `base` on.
+// The NORMAL accessor `index` (VEC3, n of them) into mesh.normals from `base` on; as in read_ply,
+// an entry that is not finite or beyond 1e6 reads as 0.
 Status read_normals(const tinygltf::Model& model, int index, const std::string& what,
                     std::size_t base, std::size_t n, Mesh& mesh) {
   auto normals = AccessorView::open(model, index, what);
@@ -262,7 +268,8 @@ Status read_normals(const tinygltf::Model& model, int index, const std::string& 
   }
   for (std::size_t v = 0; v < n; ++v) {
     for (int a = 0; a < 3; ++a) {
-      mesh.normals[base + v][a] = static_cast<float>(normals->at(v, a));
+      const double entry = normals->at(v, a);
+      mesh.normals[base + v][a] = std::abs(entry) <= 1e6 ? static_cast<float>(entry) : 0.0f;
     }
   }
   return {};
@@ -364,6 +371,38 @@ Status append_primitive(const tinygltf::Model& model, const tinygltf::Primitive&
   return append_triangles(*indices, what, base, *n, mesh);
 }
 
+// tinygltf's file callbacks for external buffers, through read_file_bytes: regular files only
+// (its own opened a FIFO and waited for a writer), up to the size limit.
+bool file_exists(const std::string& path, void*) {
+  std::error_code ec;
+  return std::filesystem::exists(path, ec);
+}
+
+bool read_whole_file(std::vector<unsigned char>* out, std::string* error, const std::string& path,
+                     void*) {
+  auto bytes = io::read_file_bytes(path);
+  if (!bytes.ok()) {
+    if (error != nullptr) *error += bytes.error().message + "\n";
+    return false;
+  }
+  if (bytes->empty()) {
+    if (error != nullptr) *error += path + ": empty file\n";
+    return false;
+  }
+  *out = std::move(*bytes);
+  return true;
+}
+
+tinygltf::FsCallbacks file_callbacks() {
+  tinygltf::FsCallbacks callbacks{};
+  callbacks.FileExists = file_exists;
+  callbacks.ExpandFilePath = tinygltf::ExpandFilePath;
+  callbacks.ReadWholeFile = read_whole_file;
+  callbacks.WriteWholeFile = tinygltf::WriteWholeFile;
+  callbacks.user_data = nullptr;
+  return callbacks;
+}
+
 }  // namespace
 
 Status write_glb(const std::filesystem::path& path, const Mesh& mesh) {
@@ -383,27 +422,33 @@ Status write_glb(const std::filesystem::path& path, const Mesh& mesh) {
 }
 
 Result<Mesh> read_gltf(const std::filesystem::path& path) {
-  const std::string what = path.string();
-  tinygltf::Model model;
-  tinygltf::TinyGLTF loader;
-  std::string error, warning;
-  bool loaded = false;
+  auto bytes = io::read_file_bytes(path);
+  if (!bytes.ok()) return bytes.error();
   std::string extension = path.extension().string();
   std::transform(extension.begin(), extension.end(), extension.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  if (extension == ".glb") {
-    auto bytes = io::read_file_bytes(path);
-    if (!bytes.ok()) return bytes.error();
-    loaded = loader.LoadBinaryFromMemory(&model, &error, &warning, bytes->data(),
-                                         static_cast<unsigned int>(bytes->size()),
-                                         path.parent_path().string());
-  } else {
-    if (!std::filesystem::exists(path)) {
-      return make_error(ErrorCode::kNotFound, what + ": no such file");
-    }
-    loaded = loader.LoadASCIIFromFile(&model, &error, &warning, path.string());
+  return mesh::parse_gltf(*bytes, extension == ".glb", path.parent_path(), path.string());
+}
+
+namespace mesh {
+
+Result<Mesh> parse_gltf(const std::vector<std::uint8_t>& bytes, bool binary,
+                        const std::filesystem::path& base_directory, const std::string& name) {
+  if (bytes.size() > std::numeric_limits<unsigned int>::max()) {
+    return make_error(ErrorCode::kUnsupported, name + ": larger than tinygltf reads (4 GiB)");
   }
-  if (!loaded) return make_error(ErrorCode::kParseError, what + ": " + error);
+  tinygltf::Model model;
+  tinygltf::TinyGLTF loader;
+  loader.SetFsCallbacks(file_callbacks());
+  std::string error, warning;
+  const auto size = static_cast<unsigned int>(bytes.size());
+  const bool loaded = binary
+                          ? loader.LoadBinaryFromMemory(&model, &error, &warning, bytes.data(),
+                                                        size, base_directory.string())
+                          : loader.LoadASCIIFromString(&model, &error, &warning,
+                                                       reinterpret_cast<const char*>(bytes.data()),
+                                                       size, base_directory.string());
+  if (!loaded) return make_error(ErrorCode::kParseError, name + ": " + error);
 
   Mesh mesh;
   bool all_normals = true, all_colors = true;
@@ -411,12 +456,14 @@ Result<Mesh> read_gltf(const std::filesystem::path& path) {
     for (const auto& primitive : gltf_mesh.primitives) {
       if (primitive.mode != TINYGLTF_MODE_TRIANGLES) continue;
       IMUFUSION_RETURN_IF_ERROR(
-          append_primitive(model, primitive, what, mesh, all_normals, all_colors));
+          append_primitive(model, primitive, name, mesh, all_normals, all_colors));
     }
   }
   if (!all_colors) mesh.colors.clear();
-  if (!all_normals) mesh::compute_vertex_normals(mesh);
+  if (!all_normals) compute_vertex_normals(mesh);
   return mesh;
 }
+
+}  // namespace mesh
 
 }  // namespace imufusion

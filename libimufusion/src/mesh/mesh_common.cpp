@@ -10,18 +10,20 @@ namespace imufusion {
 namespace mesh {
 
 void compute_vertex_normals(Mesh& mesh) {
-  std::vector<Eigen::Vector3f> sum(mesh.vertices.size(), Eigen::Vector3f::Zero());
+  // In double: with coordinates near float's limit (3.4e38) the cross product overflows float.
+  std::vector<Eigen::Vector3d> sum(mesh.vertices.size(), Eigen::Vector3d::Zero());
   for (const auto& tri : mesh.triangles) {
-    const Eigen::Vector3f& a = mesh.vertices[tri[0]];
-    const Eigen::Vector3f& b = mesh.vertices[tri[1]];
-    const Eigen::Vector3f& c = mesh.vertices[tri[2]];
-    const Eigen::Vector3f area_normal = (b - a).cross(c - a);  // length: twice the area
+    const Eigen::Vector3d a = mesh.vertices[tri[0]].cast<double>();
+    const Eigen::Vector3d b = mesh.vertices[tri[1]].cast<double>();
+    const Eigen::Vector3d c = mesh.vertices[tri[2]].cast<double>();
+    const Eigen::Vector3d area_normal = (b - a).cross(c - a);  // length: twice the area
     for (std::uint32_t v : tri) sum[v] += area_normal;
   }
   mesh.normals.resize(mesh.vertices.size());
   for (std::size_t v = 0; v < sum.size(); ++v) {
-    const float length = sum[v].norm();
-    mesh.normals[v] = length > 0.0f ? Eigen::Vector3f(sum[v] / length) : Eigen::Vector3f::UnitZ();
+    const double length = sum[v].norm();
+    mesh.normals[v] =
+        length > 0.0 ? Eigen::Vector3f((sum[v] / length).cast<float>()) : Eigen::Vector3f::UnitZ();
   }
 }
 

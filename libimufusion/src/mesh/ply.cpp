@@ -271,6 +271,9 @@ class BodyReader {
       : reader_(bytes, body_offset), body_bytes_(bytes.size() - body_offset), file_(file) {}
 
   Status read_element(const Element& element) {
+    // Items without properties hold no bytes: whatever their count, there is nothing to read
+    // (and looping over a count of 1e18 would never end).
+    if (element.properties.empty() && element.name != "vertex") return {};
     // Each item takes at least its scalars and list counts: refuse counts the file cannot hold
     // before allocating for them.
     std::size_t min_item_size = 0;
@@ -284,6 +287,9 @@ class BodyReader {
     const bool is_vertex = element.name == "vertex";
     const VertexColumns columns = vertex_columns(element);
     if (is_vertex) {
+      // Faces index one vertex list; a second would leave the first's colours unmatched.
+      if (vertex_read_) return parse_error(file_, "a second vertex element (one is allowed)");
+      vertex_read_ = true;
       if (!columns.has_position()) return parse_error(file_, "vertex element lacks x, y or z");
       has_normals_ = columns.has_normals();
       mesh_.vertices.resize(element.count);
@@ -346,7 +352,13 @@ class BodyReader {
   // A list property's count and entries into polygon_, each a vertex index in uint32 range.
   Status read_list(const Element& element, const Property& property, std::size_t item) {
     double count = 0;
-    if (!reader_.read(property.count_type, count) || count < 0) return truncated(element, item);
+    if (!reader_.read(property.count_type, count)) return truncated(element, item);
+    // Each entry takes a byte or more: a count beyond the file's size (or a float count that is
+    // negative, NaN or 1e30) is corrupt.
+    if (!(count >= 0.0 && count <= static_cast<double>(body_bytes_))) {
+      return parse_error(file_, element.name + " " + std::to_string(item) + " has list count " +
+                                    std::to_string(count));
+    }
     polygon_.clear();
     for (std::size_t k = 0; k < static_cast<std::size_t>(count); ++k) {
       double index = 0;
@@ -387,7 +399,8 @@ class BodyReader {
   std::size_t body_bytes_;  // from the end of the header to the end of the file
   const std::string& file_;
   Mesh mesh_;
-  bool has_normals_ = false;            // the last vertex element has nx, ny and nz
+  bool vertex_read_ = false;            // the vertex element is read (or being read)
+  bool has_normals_ = false;            // the vertex element has nx, ny and nz
   std::vector<double> values_;          // the current item's scalar properties, by column
   std::vector<std::uint32_t> polygon_;  // the current item's last list
 };
@@ -430,14 +443,21 @@ Status write_ply(const std::filesystem::path& path, const Mesh& mesh) {
 Result<Mesh> read_ply(const std::filesystem::path& path) {
   auto bytes = io::read_file_bytes(path);
   if (!bytes.ok()) return bytes.error();
-  const std::string name = path.string();
-  auto header = parse_header(*bytes, name);
+  return mesh::parse_ply(*bytes, path.string());
+}
+
+namespace mesh {
+
+Result<Mesh> parse_ply(const std::vector<std::uint8_t>& bytes, const std::string& name) {
+  auto header = parse_header(bytes, name);
   if (!header.ok()) return header.error();
-  BodyReader body(*bytes, header->body_offset, name);
+  BodyReader body(bytes, header->body_offset, name);
   for (const Element& element : header->elements) {
     IMUFUSION_RETURN_IF_ERROR(body.read_element(element));
   }
   return body.finish();
 }
+
+}  // namespace mesh
 
 }  // namespace imufusion
