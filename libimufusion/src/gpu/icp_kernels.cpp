@@ -34,7 +34,8 @@ Result<IcpKernels> IcpKernels::create(std::shared_ptr<Context> context, std::siz
   if (!rows) return rows.error();
   k.rows_ = std::move(*rows);
   const std::size_t max_groups = (max_pixels + kRowsPerGroup - 1) / kRowsPerGroup;
-  auto partials = Buffer::create(context, max_groups * ICP_PARTIAL_STRIDE * sizeof(float));
+  // Host-visible: the host reads the partial sums of every iteration without a transfer.
+  auto partials = Buffer::create(context, max_groups * ICP_PARTIAL_STRIDE * sizeof(float), true);
   if (!partials) return partials.error();
   k.partials_ = std::move(*partials);
   return k;

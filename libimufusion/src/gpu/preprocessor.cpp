@@ -77,14 +77,15 @@ Result<Preprocessor> Preprocessor::create(std::shared_ptr<Context> context,
   IMUFUSION_RETURN_IF_ERROR(
       make("map_pyramid_down", sizeof(layout::PyramidDownParams), p.map_pyramid_, 4));
 
-  auto alloc = [&](std::size_t bytes, Buffer& out) -> Status {
-    auto buffer = Buffer::create(context, bytes);
+  auto alloc = [&](std::size_t bytes, Buffer& out, bool host_visible = false) -> Status {
+    auto buffer = Buffer::create(context, bytes, host_visible);
     if (!buffer) return buffer.error();
     out = std::move(*buffer);
     return {};
   };
   const auto pixels0 = static_cast<std::size_t>(intrinsics.width) * intrinsics.height;
-  IMUFUSION_RETURN_IF_ERROR(alloc((pixels0 + 1) / 2 * 4, p.raw_));
+  // Host-visible: the frame's depth is written in place, read once by depth_to_metres.
+  IMUFUSION_RETURN_IF_ERROR(alloc((pixels0 + 1) / 2 * 4, p.raw_, true));
   IMUFUSION_RETURN_IF_ERROR(alloc(pixels0 * sizeof(float), p.raw_metres_));
   for (int level = 0; level < config.levels; ++level) {
     const Intrinsics k = intrinsics.at_level(level);

@@ -78,8 +78,8 @@ Result<TsdfVolume> TsdfVolume::create(std::shared_ptr<Context> context, const Vo
       {"volume_raycast_range", 4, sizeof(layout::VolumeRangeParams), 64, 1}, v.range_pipeline_));
   IMUFUSION_RETURN_IF_ERROR(
       make({"volume_raycast", 10, sizeof(layout::VolumeRaycastParams), wx, wy}, v.raycast_));
-  auto alloc = [&](std::size_t bytes, Buffer& out) -> Status {
-    auto buffer = Buffer::create(context, bytes);
+  auto alloc = [&](std::size_t bytes, Buffer& out, bool host_visible = false) -> Status {
+    auto buffer = Buffer::create(context, bytes, host_visible);
     if (!buffer) return buffer.error();
     out = std::move(*buffer);
     return {};
@@ -91,13 +91,15 @@ Result<TsdfVolume> TsdfVolume::create(std::shared_ptr<Context> context, const Vo
   // One visible-list entry per slot: a frame lists each slot at most once (see volume_allocate).
   IMUFUSION_RETURN_IF_ERROR(alloc(slots * 4, v.visible_));
   IMUFUSION_RETURN_IF_ERROR(alloc(VOLUME_COUNTERS * 4, v.counters_));
+  IMUFUSION_RETURN_IF_ERROR(alloc(VOLUME_COUNTERS * 4, v.counters_start_, true));
+  IMUFUSION_RETURN_IF_ERROR(alloc(VOLUME_COUNTERS * 4, v.counters_readback_, true));
   IMUFUSION_RETURN_IF_ERROR(alloc(std::size_t{config.block_capacity} * 4, v.block_slots_));
   IMUFUSION_RETURN_IF_ERROR(
       alloc(std::size_t{config.block_capacity} * kBlockVoxels * 4, v.tsdf_weight_));
   IMUFUSION_RETURN_IF_ERROR(
       alloc(std::size_t{config.block_capacity} * kBlockVoxels * 4, v.voxel_colors_));
   IMUFUSION_RETURN_IF_ERROR(alloc(4, v.no_color_));
-  auto seq = CommandSequence::create(context, 2);
+  auto seq = CommandSequence::create(context, 4);  // at most 3 per submission, see below
   if (!seq) return seq.error();
   v.seq_ = std::move(*seq);
   IMUFUSION_RETURN_IF_ERROR(v.reset());
@@ -114,6 +116,7 @@ Status TsdfVolume::reset() {
   IMUFUSION_RETURN_IF_ERROR(voxel_colors_.clear());
   frame_stamp_ = 0;
   allocated_ = 0;
+  allocated_counter_ = 0;
   return {};
 }
 
@@ -123,13 +126,11 @@ Result<IntegrationStats> TsdfVolume::integrate(const Buffer& depth, const Buffer
                                                std::vector<KernelTiming>* timings) {
   if (!T_world_camera.matrix().allFinite())
     return make_error(ErrorCode::kInvalidArgument, "integration pose is not finite");
-  // Only the allocation count carries over from frame to frame.
+  // Only the allocation count carries over from frame to frame; the counters are set in the same
+  // submission as the allocation pass.
   std::uint32_t counters[VOLUME_COUNTERS] = {};
-  IMUFUSION_RETURN_IF_ERROR(counters_.download(counters, sizeof(counters)));
-  const std::uint32_t allocated = counters[VOLUME_COUNTER_ALLOCATED];
-  std::fill(std::begin(counters), std::end(counters), 0u);
-  counters[VOLUME_COUNTER_ALLOCATED] = allocated;
-  IMUFUSION_RETURN_IF_ERROR(counters_.upload(counters, sizeof(counters)));
+  counters[VOLUME_COUNTER_ALLOCATED] = allocated_counter_;
+  IMUFUSION_RETURN_IF_ERROR(counters_start_.upload(counters, sizeof(counters)));
   ++frame_stamp_;
   if (frame_stamp_ == 0) {  // wrapped after 2^32 frames: old stamps could collide
     IMUFUSION_RETURN_IF_ERROR(stamps_.clear());
@@ -145,13 +146,16 @@ Result<IntegrationStats> TsdfVolume::integrate(const Buffer& depth, const Buffer
   ap.block_capacity = config_.block_capacity;
   ap.frame_stamp = frame_stamp_;
   IMUFUSION_RETURN_IF_ERROR(seq_.begin());
+  seq_.copy(counters_start_, counters_, sizeof(counters), "volume_counters");
   seq_.dispatch(allocate_,
                 {&depth, &keys_, &values_, &stamps_, &visible_, &counters_, &block_slots_}, ap,
                 ap.width, ap.height, "volume_allocate");
+  seq_.copy(counters_, counters_readback_, sizeof(counters), "volume_counters");
   auto t1 = seq_.submit_and_wait();
   if (!t1) return t1.error();
   if (timings != nullptr) timings->insert(timings->end(), t1->begin(), t1->end());
-  IMUFUSION_RETURN_IF_ERROR(counters_.download(counters, sizeof(counters)));
+  IMUFUSION_RETURN_IF_ERROR(counters_readback_.download(counters, sizeof(counters)));
+  allocated_counter_ = counters[VOLUME_COUNTER_ALLOCATED];
 
   IntegrationStats stats;
   const std::uint32_t listed = counters[VOLUME_COUNTER_VISIBLE];  // touched slots, <= hash_slots
@@ -177,10 +181,11 @@ Result<IntegrationStats> TsdfVolume::integrate(const Buffer& depth, const Buffer
                 {&depth, color != nullptr ? color : &no_color_, &keys_, &values_, &visible_,
                  &tsdf_weight_, &voxel_colors_, &counters_},
                 ip, 8 * groups_x, 8 * groups_y, "volume_integrate");
+  seq_.copy(counters_, counters_readback_, sizeof(counters), "volume_counters");
   auto t2 = seq_.submit_and_wait();
   if (!t2) return t2.error();
   if (timings != nullptr) timings->insert(timings->end(), t2->begin(), t2->end());
-  IMUFUSION_RETURN_IF_ERROR(counters_.download(counters, sizeof(counters)));
+  IMUFUSION_RETURN_IF_ERROR(counters_readback_.download(counters, sizeof(counters)));
   // Every touched block is either fused or counted as refused by the full pool.
   stats.pool_full = counters[VOLUME_COUNTER_POOL_FULL];
   stats.visible_blocks = listed - stats.pool_full;
@@ -203,7 +208,6 @@ Status TsdfVolume::raycast(const Intrinsics& k, const Eigen::Isometry3d& T_world
   rp.hash_mask = config_.hash_slots - 1;
   rp.range_width = (rp.width + VOLUME_RANGE_TILE - 1) / VOLUME_RANGE_TILE;
   IMUFUSION_RETURN_IF_ERROR(reserve_range(k.width, k.height));
-  IMUFUSION_RETURN_IF_ERROR(range_.clear());
 
   layout::VolumeRangeParams qp{};
   set_intrinsics(qp, k);
@@ -213,6 +217,7 @@ Status TsdfVolume::raycast(const Intrinsics& k, const Eigen::Isometry3d& T_world
   qp.range_width = rp.range_width;
   qp.block_count = allocated_;
   IMUFUSION_RETURN_IF_ERROR(seq_.begin());
+  seq_.fill(range_, 0, "volume_raycast_range_clear");
   if (allocated_ > 0) {
     seq_.dispatch(range_pipeline_, {&keys_, &values_, &block_slots_, &range_}, qp, allocated_, 1,
                   "volume_raycast_range");

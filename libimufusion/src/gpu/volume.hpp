@@ -53,10 +53,15 @@ class TsdfVolume {
   ComputePipeline allocate_, integrate_, range_pipeline_, raycast_;
   Buffer keys_, values_, stamps_, visible_, counters_, block_slots_, tsdf_weight_, voxel_colors_,
       no_color_, range_, steps_;
+  // Host-visible: the counters a frame starts from, and their copy after each pass (read by the
+  // host without a transfer of its own).
+  Buffer counters_start_, counters_readback_;
   std::size_t raycast_pixels_ = 0;
   CommandSequence seq_;
   std::uint32_t frame_stamp_ = 0;
   std::uint32_t allocated_ = 0;
+  std::uint32_t allocated_counter_ =
+      0;  // VOLUME_COUNTER_ALLOCATED as last read (may pass capacity)
 };
 
 }  // namespace imufusion::gpu

@@ -215,6 +215,26 @@ void CommandSequence::copy(const Buffer& src, const Buffer& dst, VkDeviceSize by
   labels_.push_back(label);
 }
 
+void CommandSequence::fill(const Buffer& buffer, std::uint32_t value, const std::string& label) {
+  if (!check_room(label)) return;
+  if (!buffer.valid()) {
+    error_ = make_error(ErrorCode::kInternal, label + ": fill of an empty buffer");
+    return;
+  }
+  const auto index = static_cast<std::uint32_t>(labels_.size());
+  if (queries_ != VK_NULL_HANDLE)
+    vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queries_, 2 * index);
+  barrier(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+          VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT);
+  vkCmdFillBuffer(cmd_, buffer.handle(), 0, VK_WHOLE_SIZE, value);
+  barrier(VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+          VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+          VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+  if (queries_ != VK_NULL_HANDLE)
+    vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries_, 2 * index + 1);
+  labels_.push_back(label);
+}
+
 bool CommandSequence::check_room(const std::string& label) {
   if (error_) return false;
   if (!recording_) {
@@ -241,8 +261,9 @@ void CommandSequence::barrier(VkPipelineStageFlags src_stage, VkAccessFlags src_
 Result<std::vector<KernelTiming>> CommandSequence::submit_and_wait() {
   if (!recording_) return make_error(ErrorCode::kInternal, "submit without begin()");
   Context& ctx = *context_;
-  // Results written by the shaders become visible to host reads and transfers.
-  barrier(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+  // Results written by the shaders and copies become visible to host reads and transfers.
+  barrier(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+          VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
           VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
           VK_ACCESS_HOST_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT);
   VkResult result = vkEndCommandBuffer(cmd_);

@@ -48,6 +48,8 @@ class CommandSequence {
   /// Records a copy of the first `bytes` of `src` into `dst`, ordered after the dispatches before
   /// it and before those after it; counts as one dispatch (timed, labelled).
   void copy(const Buffer& src, const Buffer& dst, VkDeviceSize bytes, const std::string& label);
+  /// Records filling `buffer` with the 32-bit `value`, ordered like a dispatch; counts as one.
+  void fill(const Buffer& buffer, std::uint32_t value, const std::string& label);
   /// Ends recording, submits, waits for completion, and returns one timing per dispatch.
   Result<std::vector<KernelTiming>> submit_and_wait();
 
