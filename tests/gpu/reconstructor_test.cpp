@@ -79,8 +79,9 @@ TEST_F(ReconstructorTest, TheSeedGateLeavesWellTrackedFramesAlone) {
   EXPECT_LT(ate(rec.trajectory()), 0.01);
 }
 
-// Tracking at half size (ReconstructorConfig::tracking_level 1): ICP and the model raycast run on
-// the pyramid's level 1 and coarser only, fusion takes the full frame, and the room still tracks.
+// Tracking at half size (ReconstructorConfig::tracking_level 1): ICP, its vertex and normal maps
+// and the model raycast are on the pyramid's level 1 and coarser only, fusion takes the full
+// frame, and the room still tracks.
 // At this test's 160x120 the default on any device is the full frame (no level is 320x240).
 TEST_F(ReconstructorTest, TracksAtHalfSizeWhileFusingTheFullFrame) {
   EXPECT_EQ(make(config(true, 2)).tracking_level(), 0);
@@ -95,6 +96,7 @@ TEST_F(ReconstructorTest, TracksAtHalfSizeWhileFusingTheFullFrame) {
     for (const KernelTiming& k : r->timings.kernels) {
       EXPECT_EQ(k.kernel.find("icp_associate[0]"), std::string::npos);
       EXPECT_EQ(k.kernel.find("reference_copy[0]"), std::string::npos);
+      EXPECT_EQ(k.kernel.find("normal_map[0]"), std::string::npos);  // no maps ICP does not use
     }
   }
   EXPECT_LT(ate(rec.trajectory()), 0.01);

@@ -169,7 +169,7 @@ std::uint32_t Preprocessor::dispatch_count() const {
          2 * static_cast<std::uint32_t>(config_.levels);
 }
 
-void Preprocessor::record(CommandSequence& seq) const {
+void Preprocessor::record(CommandSequence& seq, int first_map_level) const {
   const Intrinsics& k0 = levels_.front();
   const auto w0 = static_cast<std::uint32_t>(k0.width);
   const auto h0 = static_cast<std::uint32_t>(k0.height);
@@ -194,7 +194,7 @@ void Preprocessor::record(CommandSequence& seq) const {
         {&depth_[static_cast<std::size_t>(level - 1)], &depth_[static_cast<std::size_t>(level)]},
         down, down.dst_width, down.dst_height, level_label("pyramid_down", level));
   }
-  for (int level = 0; level < config_.levels; ++level) {
+  for (int level = first_map_level; level < config_.levels; ++level) {
     const auto l = static_cast<std::size_t>(level);
     const Intrinsics& k = levels_[l];
     const auto w = static_cast<std::uint32_t>(k.width);

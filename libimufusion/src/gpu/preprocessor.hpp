@@ -32,8 +32,9 @@ class Preprocessor {
                         int first_level = 0) const;
   /// Number of dispatches record_maps_from() adds.
   std::uint32_t maps_dispatch_count() const;
-  /// Records every preprocessing dispatch into `seq` (between begin and submit).
-  void record(CommandSequence& seq) const;
+  /// Records every preprocessing dispatch into `seq` (between begin and submit); vertex and
+  /// normal maps from `first_map_level` on (the levels ICP uses), depth at every level.
+  void record(CommandSequence& seq, int first_map_level = 0) const;
   /// Number of dispatches record() adds.
   std::uint32_t dispatch_count() const;
   /// Copies the results of the last submitted run to the host.

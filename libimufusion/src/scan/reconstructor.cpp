@@ -45,7 +45,7 @@ Status Reconstructor::Impl::preprocess(const DepthImage& depth, const ColorImage
   const auto t0 = Clock::now();
   IMUFUSION_RETURN_IF_ERROR(current.upload(depth));
   IMUFUSION_RETURN_IF_ERROR(preprocess_seq.begin());
-  current.record(preprocess_seq);
+  current.record(preprocess_seq, tracking_level);
   auto t = preprocess_seq.submit_and_wait();
   if (!t) return t.error();
   timings.kernels.insert(timings.kernels.end(), t->begin(), t->end());
