@@ -6,10 +6,12 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <vector>
 
 #include "gpu_test_env.hpp"
 #include "imufusion/device.hpp"
 #include "vk/buffer.hpp"
+#include "vk/command_sequence.hpp"
 #include "vk/pipeline.hpp"
 
 namespace imufusion {
@@ -79,6 +81,31 @@ TEST_F(GpuTest, BufferRoundTripAndRangeChecks) {
   EXPECT_EQ(*back, values);
   EXPECT_FALSE(buffer->upload(values.data(), 16).ok());
   EXPECT_FALSE(buffer->download(nullptr, 4, 12).ok());
+}
+
+// Transfers recorded between dispatches: a fill, then a copy of what it wrote, in one submission
+// (device-local and host-visible buffers), each timed like a dispatch; a copy larger than its
+// buffers is an error at submit.
+TEST_F(GpuTest, FillAndCopyRunInOrderInOneSubmission) {
+  auto device = gpu::Buffer::create(context_, 64);
+  auto host = gpu::Buffer::create(context_, 64, true);
+  auto seq = gpu::CommandSequence::create(context_, 2);
+  ASSERT_TRUE(device.ok() && host.ok() && seq.ok());
+  ASSERT_TRUE(seq->begin().ok());
+  seq->fill(*device, 0x3f800000u, "fill");  // 1.0f
+  seq->copy(*device, *host, 64, "copy");
+  auto timings = seq->submit_and_wait();
+  ASSERT_TRUE(timings.ok()) << timings.error().describe();
+  ASSERT_EQ(timings->size(), 2u);
+  EXPECT_EQ((*timings)[1].kernel, "copy");
+  auto back = host->download_as<float>(16);
+  ASSERT_TRUE(back.ok());
+  EXPECT_EQ(*back, std::vector<float>(16, 1.0f));
+  ASSERT_TRUE(seq->begin().ok());
+  seq->copy(*device, *host, 128, "too large");
+  auto failed = seq->submit_and_wait();
+  ASSERT_FALSE(failed.ok());
+  EXPECT_NE(failed.error().message.find("too large"), std::string::npos);
 }
 
 TEST_F(GpuTest, UnknownShaderIsAnError) {

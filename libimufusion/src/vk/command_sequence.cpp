@@ -199,20 +199,10 @@ void CommandSequence::copy(const Buffer& src, const Buffer& dst, VkDeviceSize by
                        std::to_string(src.size()) + " and " + std::to_string(dst.size()));
     return;
   }
-  const auto index = static_cast<std::uint32_t>(labels_.size());
-  if (queries_ != VK_NULL_HANDLE)
-    vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queries_, 2 * index);
-  barrier(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
-          VK_PIPELINE_STAGE_TRANSFER_BIT,
-          VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_TRANSFER_WRITE_BIT);
-  const VkBufferCopy region{0, 0, bytes};
-  if (bytes > 0) vkCmdCopyBuffer(cmd_, src.handle(), dst.handle(), 1, &region);
-  barrier(VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
-          VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-          VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
-  if (queries_ != VK_NULL_HANDLE)
-    vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries_, 2 * index + 1);
-  labels_.push_back(label);
+  record_transfer(label, VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_TRANSFER_WRITE_BIT, [&] {
+    const VkBufferCopy region{0, 0, bytes};
+    if (bytes > 0) vkCmdCopyBuffer(cmd_, src.handle(), dst.handle(), 1, &region);
+  });
 }
 
 void CommandSequence::fill(const Buffer& buffer, std::uint32_t value, const std::string& label) {
@@ -221,12 +211,20 @@ void CommandSequence::fill(const Buffer& buffer, std::uint32_t value, const std:
     error_ = make_error(ErrorCode::kInternal, label + ": fill of an empty buffer");
     return;
   }
+  record_transfer(label, VK_ACCESS_TRANSFER_WRITE_BIT,
+                  [&] { vkCmdFillBuffer(cmd_, buffer.handle(), 0, VK_WHOLE_SIZE, value); });
+}
+
+// A transfer command between the dispatches, timed and labelled like one: after the shader
+// writes before it (`access`: what the command does), its writes visible to the shaders after it.
+void CommandSequence::record_transfer(const std::string& label, VkAccessFlags access,
+                                      const std::function<void()>& command) {
   const auto index = static_cast<std::uint32_t>(labels_.size());
   if (queries_ != VK_NULL_HANDLE)
     vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queries_, 2 * index);
   barrier(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
-          VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT);
-  vkCmdFillBuffer(cmd_, buffer.handle(), 0, VK_WHOLE_SIZE, value);
+          VK_PIPELINE_STAGE_TRANSFER_BIT, access);
+  command();
   barrier(VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
           VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
           VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);

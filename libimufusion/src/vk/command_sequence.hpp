@@ -6,6 +6,7 @@
 #include <vulkan/vulkan.h>
 
 #include <cstdint>
+#include <functional>
 #include <initializer_list>
 #include <memory>
 #include <optional>
@@ -56,6 +57,8 @@ class CommandSequence {
  private:
   void release();
   bool check_room(const std::string& label);
+  void record_transfer(const std::string& label, VkAccessFlags access,
+                       const std::function<void()>& command);
   void barrier(VkPipelineStageFlags src_stage, VkAccessFlags src_access,
                VkPipelineStageFlags dst_stage, VkAccessFlags dst_access);
 
