@@ -141,6 +141,14 @@ Status Preprocessor::upload_maps(const Vec4Image& vertices, const Vec4Image& nor
   return {};
 }
 
+layout::PyramidDownParams Preprocessor::pyramid_down(int level) const {
+  const Intrinsics& src = levels_[static_cast<std::size_t>(level - 1)];
+  const Intrinsics& dst = levels_[static_cast<std::size_t>(level)];
+  return {static_cast<std::uint32_t>(src.width), static_cast<std::uint32_t>(src.height),
+          static_cast<std::uint32_t>(dst.width), static_cast<std::uint32_t>(dst.height),
+          config_.max_jump_fraction};
+}
+
 void Preprocessor::record_maps_from(CommandSequence& seq, const Buffer& vertices,
                                     const Buffer& normals, int first_level) const {
   const auto first = static_cast<std::size_t>(first_level);
@@ -149,12 +157,7 @@ void Preprocessor::record_maps_from(CommandSequence& seq, const Buffer& vertices
   seq.copy(normals, normals_[first], normals_[first].size(), label);
   for (int level = first_level + 1; level < config_.levels; ++level) {
     const auto l = static_cast<std::size_t>(level);
-    const Intrinsics& src = levels_[l - 1];
-    const Intrinsics& dst = levels_[l];
-    const layout::PyramidDownParams down{
-        static_cast<std::uint32_t>(src.width), static_cast<std::uint32_t>(src.height),
-        static_cast<std::uint32_t>(dst.width), static_cast<std::uint32_t>(dst.height),
-        config_.max_jump_fraction};
+    const layout::PyramidDownParams down = pyramid_down(level);
     seq.dispatch(map_pyramid_, {&vertices_[l - 1], &normals_[l - 1], &vertices_[l], &normals_[l]},
                  down, down.dst_width, down.dst_height, level_label("map_pyramid_down", level));
   }
@@ -183,12 +186,7 @@ void Preprocessor::record(CommandSequence& seq, int first_map_level) const {
   seq.dispatch(bilateral_, {&raw_metres_, &depth_[0]}, bilateral, w0, h0,
                level_label("bilateral", 0));
   for (int level = 1; level < config_.levels; ++level) {
-    const Intrinsics& src = levels_[static_cast<std::size_t>(level - 1)];
-    const Intrinsics& dst = levels_[static_cast<std::size_t>(level)];
-    const layout::PyramidDownParams down{
-        static_cast<std::uint32_t>(src.width), static_cast<std::uint32_t>(src.height),
-        static_cast<std::uint32_t>(dst.width), static_cast<std::uint32_t>(dst.height),
-        config_.max_jump_fraction};
+    const layout::PyramidDownParams down = pyramid_down(level);
     seq.dispatch(
         pyramid_down_,
         {&depth_[static_cast<std::size_t>(level - 1)], &depth_[static_cast<std::size_t>(level)]},

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "imufusion/preprocess.hpp"
+#include "imufusion_layouts.h"
 #include "vk/buffer.hpp"
 #include "vk/command_sequence.hpp"
 #include "vk/context.hpp"
@@ -48,6 +49,9 @@ class Preprocessor {
   const PreprocessConfig& config() const { return config_; }
 
  private:
+  /// The 2x2 reduction from `level - 1` to `level` (depth and map pyramids alike).
+  layout::PyramidDownParams pyramid_down(int level) const;
+
   PreprocessConfig config_;
   std::vector<Intrinsics> levels_;
   ComputePipeline to_metres_, bilateral_, pyramid_down_, vertex_map_, normal_map_, map_pyramid_;

@@ -115,7 +115,6 @@ Status TsdfVolume::reset() {
   IMUFUSION_RETURN_IF_ERROR(tsdf_weight_.clear());
   IMUFUSION_RETURN_IF_ERROR(voxel_colors_.clear());
   frame_stamp_ = 0;
-  allocated_ = 0;
   allocated_counter_ = 0;
   return {};
 }
@@ -159,8 +158,7 @@ Result<IntegrationStats> TsdfVolume::integrate(const Buffer& depth, const Buffer
 
   IntegrationStats stats;
   const std::uint32_t listed = counters[VOLUME_COUNTER_VISIBLE];  // touched slots, <= hash_slots
-  allocated_ = std::min(counters[VOLUME_COUNTER_ALLOCATED], config_.block_capacity);
-  stats.allocated_blocks = allocated_;
+  stats.allocated_blocks = allocated_blocks();
   stats.table_full = counters[VOLUME_COUNTER_TABLE_FULL];
   stats.out_of_range = counters[VOLUME_COUNTER_OUT_OF_RANGE];
   if (listed == 0) return stats;
@@ -215,12 +213,12 @@ Status TsdfVolume::raycast(const Intrinsics& k, const Eigen::Isometry3d& T_world
   qp.voxel_size = config_.voxel_size;
   qp.near_depth = near_depth;
   qp.range_width = rp.range_width;
-  qp.block_count = allocated_;
+  qp.block_count = allocated_blocks();
   IMUFUSION_RETURN_IF_ERROR(seq_.begin());
   seq_.fill(range_, 0, "volume_raycast_range_clear");
-  if (allocated_ > 0) {
-    seq_.dispatch(range_pipeline_, {&keys_, &values_, &block_slots_, &range_}, qp, allocated_, 1,
-                  "volume_raycast_range");
+  if (qp.block_count > 0) {
+    seq_.dispatch(range_pipeline_, {&keys_, &values_, &block_slots_, &range_}, qp, qp.block_count,
+                  1, "volume_raycast_range");
   }
   seq_.dispatch(raycast_,
                 {&keys_, &values_, &tsdf_weight_, &voxel_colors_, &vertices, &normals, &shaded,
@@ -256,7 +254,7 @@ Result<HostVolume> TsdfVolume::snapshot() const {
   if (!keys) return keys.error();
   auto values = values_.download_as<std::uint32_t>(config_.hash_slots);
   if (!values) return values.error();
-  const std::size_t voxel_count = std::size_t{allocated_} * kBlockVoxels;
+  const std::size_t voxel_count = std::size_t{allocated_blocks()} * kBlockVoxels;
   auto tsdf_weight = tsdf_weight_.download_as<std::uint32_t>(std::max<std::size_t>(voxel_count, 1));
   if (!tsdf_weight) return tsdf_weight.error();
   auto colors = voxel_colors_.download_as<std::uint32_t>(std::max<std::size_t>(voxel_count, 1));
@@ -267,7 +265,8 @@ Result<HostVolume> TsdfVolume::snapshot() const {
   for (std::size_t slot = 0; slot < keys->size(); ++slot) {
     const std::uint32_t key = (*keys)[slot];
     const std::uint32_t block = (*values)[slot];
-    if (key == VOLUME_EMPTY_KEY || block == VOLUME_NO_BLOCK || block >= allocated_) continue;
+    if (key == VOLUME_EMPTY_KEY || block == VOLUME_NO_BLOCK || block >= allocated_blocks())
+      continue;
     VolumeBlock b;
     b.coord = Eigen::Vector3i(static_cast<int>(key & 0x7FFu) - 1024,
                               static_cast<int>((key >> 11) & 0x7FFu) - 1024,

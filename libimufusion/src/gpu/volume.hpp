@@ -2,6 +2,7 @@
 // The sparse TSDF block volume on the GPU: hash table, block pool, allocation, integration,
 // raycast, and the download of a host snapshot.
 
+#include <algorithm>
 #include <memory>
 #include <optional>
 
@@ -41,7 +42,9 @@ class TsdfVolume {
   Status reset();
 
   const VolumeConfig& config() const { return config_; }
-  std::uint32_t allocated_blocks() const { return allocated_; }
+  std::uint32_t allocated_blocks() const {
+    return std::min(allocated_counter_, config_.block_capacity);
+  }
   const std::shared_ptr<Context>& context() const { return context_; }
 
  private:
@@ -59,9 +62,8 @@ class TsdfVolume {
   std::size_t raycast_pixels_ = 0;
   CommandSequence seq_;
   std::uint32_t frame_stamp_ = 0;
-  std::uint32_t allocated_ = 0;
-  std::uint32_t allocated_counter_ =
-      0;  // VOLUME_COUNTER_ALLOCATED as last read (may pass capacity)
+  // VOLUME_COUNTER_ALLOCATED as last read: blocks asked for, which may pass the capacity.
+  std::uint32_t allocated_counter_ = 0;
 };
 
 }  // namespace imufusion::gpu
