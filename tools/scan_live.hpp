@@ -66,9 +66,19 @@ class LiveImu {
       estimate_ = estimator_.estimate();
       frames_since_estimate_ = 0;
     }
+    // A smaller offset than the last frame's maps new samples before ones already delivered:
+    // those overlap what the scan has, and are left out (counted) to keep the stream in order.
     const double offset = imu_to_frame_offset();
-    std::vector<ImuSample> mapped = *raw;
-    for (ImuSample& s : mapped) s.timestamp += offset;
+    std::vector<ImuSample> mapped;
+    for (ImuSample s : *raw) {
+      s.timestamp += offset;
+      if (last_mapped_ && s.timestamp <= *last_mapped_) {
+        ++overlapping_;
+        continue;
+      }
+      last_mapped_ = s.timestamp;
+      mapped.push_back(s);
+    }
     return mapped;
   }
 
@@ -116,6 +126,7 @@ class LiveImu {
     j["clock_offset_standard_error_s"] = estimate_.standard_error;
     j["clock_offset_correlation_host_s"] = estimate_.correlation_offset;
     j["clock_offset_intervals"] = estimate_.intervals;
+    j["left_out_by_offset_change"] = overlapping_;
     return j;
   }
 
@@ -129,6 +140,8 @@ class LiveImu {
   static constexpr int kCorrelationRefreshFrames =
       30;  // ~1 s at 30 Hz; the offset drifts far slower
   int frames_since_estimate_ = 0;
+  std::optional<double> last_mapped_;  // frame-clock time of the last sample delivered (s)
+  std::size_t overlapping_ = 0;        // samples left out for a decreased offset
   std::optional<std::pair<double, Eigen::Isometry3d>>
       previous_;  // last reliable frame: time, T_world_camera
 };
