@@ -20,7 +20,7 @@ layout(push_constant) uniform Push { VolumeIntegrateParams p; };
 
 void main() {
   uint entry = gl_WorkGroupID.x + gl_NumWorkGroups.x * gl_WorkGroupID.y;
-  if (entry >= p.visible_count) return;
+  if (entry >= counters[VOLUME_COUNTER_VISIBLE]) return;
   uint slot = visible[entry];
   uint block = values[slot];
   if (block == VOLUME_NO_BLOCK) {  // touched, but refused storage when the pool filled

@@ -9,6 +9,7 @@ layout(std430, set = 0, binding = 0) readonly buffer Keys { uint keys[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Values { uint values[]; };
 layout(std430, set = 0, binding = 2) readonly buffer BlockSlots { uint block_slots[]; };
 layout(std430, set = 0, binding = 3) buffer Range { uint range[]; };
+layout(std430, set = 0, binding = 4) readonly buffer Counters { uint counters[]; };
 layout(push_constant) uniform Push { VolumeRangeParams p; };
 
 #include "volume_common.glsl"
@@ -27,7 +28,7 @@ void include_point(vec3 q) {
 
 void main() {
   uint i = gl_GlobalInvocationID.x;
-  if (i >= p.block_count) return;
+  if (i >= min(counters[VOLUME_COUNTER_ALLOCATED], p.block_capacity)) return;
   ivec3 b = unpack_key(keys[block_slots[i]]);
   mat3 R = mat3(p.r00, p.r10, p.r20, p.r01, p.r11, p.r21, p.r02, p.r12, p.r22);
   vec3 t = vec3(p.tx, p.ty, p.tz);

@@ -154,9 +154,22 @@ struct VolumeAllocateParams {
   uint frame_stamp;   // > 0, new every frame
 };
 
-// volume_integrate: one workgroup per visible-list entry (a listed slot without pool storage
-// only counts VOLUME_COUNTER_POOL_FULL) (a 2-D grid of groups, entry = x + width * y,
-// so more blocks than maxComputeWorkGroupCount[0] can be visible); each voxel is projected into the depth
+// volume_dispatch_args: one invocation turns the counters into the workgroup counts of the
+// dispatches that follow on the GPU (VkDispatchIndirectCommand, 4 uints each, at these indices):
+// integration, one group per visible-list entry on a 2-D grid at most
+// VOLUME_INTEGRATE_GROUPS_X wide; the range pass, one invocation per pool block in use.
+#define VOLUME_ARGS_INTEGRATE 0
+#define VOLUME_ARGS_RANGE 4
+#define VOLUME_ARGS_WORDS 8
+#define VOLUME_INTEGRATE_GROUPS_X 32768
+#define VOLUME_RANGE_GROUP 64
+struct VolumeArgsParams {
+  uint block_capacity;
+};
+
+// volume_integrate: one workgroup per visible-list entry (counters[VOLUME_COUNTER_VISIBLE]; a
+// listed slot without pool storage only counts VOLUME_COUNTER_POOL_FULL) (a 2-D grid of groups,
+// entry = x + width * y, so more blocks than maxComputeWorkGroupCount[0] can be visible); each voxel is projected into the depth
 // image (camera pose T_camera_world), sdf = depth - z, skipped below -truncation, then
 // tsdf = min(1, sdf / truncation) enters a running average with the weight capped at max_weight.
 struct VolumeIntegrateParams {
@@ -172,11 +185,11 @@ struct VolumeIntegrateParams {
   float voxel_size;
   float truncation;
   uint max_weight;
-  uint visible_count;
   uint has_color;  // 1: colour (RGBA8 per pixel) is bound and averaged too
 };
 
-// volume_raycast_range: one invocation per pool block (block_slots[0..block_count)): the part of
+// volume_raycast_range: one invocation per pool block in use (block_slots[0..n), n the allocation
+// counter capped at block_capacity): the part of
 // the block at z >= near_depth is projected with the raycast pose, and every range cell (a tile
 // of VOLUME_RANGE_TILE^2 pixels) whose pixel centres its bounding box may cover gets the block's
 // z-depth interval (widened by half a voxel). range[2 c] = max over blocks of ~bits(z_min) (0:
@@ -196,7 +209,7 @@ struct VolumeRangeParams {
   float voxel_size;
   float near_depth;   // metres of z-depth
   uint range_width;   // cells per row: ceil(width / VOLUME_RANGE_TILE)
-  uint block_count;   // pool blocks in use
+  uint block_capacity;
 };
 
 // volume_raycast: per pixel, march the ray from near to far by the rule of

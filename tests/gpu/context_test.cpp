@@ -5,11 +5,13 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <vector>
 
 #include "gpu_test_env.hpp"
 #include "imufusion/device.hpp"
+#include "imufusion_layouts.h"
 #include "vk/buffer.hpp"
 #include "vk/command_sequence.hpp"
 #include "vk/pipeline.hpp"
@@ -106,6 +108,66 @@ TEST_F(GpuTest, FillAndCopyRunInOrderInOneSubmission) {
   auto failed = seq->submit_and_wait();
   ASSERT_FALSE(failed.ok());
   EXPECT_NE(failed.error().message.find("too large"), std::string::npos);
+}
+
+// A submission not waited for is seen by the next one on the queue; begin() before its wait()
+// and a wait() without a submission are errors.
+TEST_F(GpuTest, LaterSubmissionSeesAnUnwaitedOne) {
+  auto device = gpu::Buffer::create(context_, 64);
+  auto host = gpu::Buffer::create(context_, 64, true);
+  auto first = gpu::CommandSequence::create(context_, 1);
+  auto second = gpu::CommandSequence::create(context_, 1);
+  ASSERT_TRUE(device.ok() && host.ok() && first.ok() && second.ok());
+  EXPECT_FALSE(first->wait().ok());
+  ASSERT_TRUE(first->begin().ok());
+  first->fill(*device, 0x40000000u, "fill");  // 2.0f
+  ASSERT_TRUE(first->submit().ok());
+  EXPECT_TRUE(first->pending());
+  EXPECT_FALSE(first->begin().ok());
+  ASSERT_TRUE(second->begin().ok());
+  second->copy(*device, *host, 64, "copy");
+  ASSERT_TRUE(second->submit_and_wait().ok());
+  auto back = host->download_as<float>(16);
+  ASSERT_TRUE(back.ok());
+  EXPECT_EQ(*back, std::vector<float>(16, 2.0f));
+  auto timings = first->wait();
+  ASSERT_TRUE(timings.ok()) << timings.error().describe();
+  EXPECT_EQ(timings->size(), 1u);
+  EXPECT_FALSE(first->pending());
+  EXPECT_FALSE(first->wait().ok());
+}
+
+// The volume's indirect workgroup counts, made on the GPU from its counters and dispatched
+// indirectly themselves: a 2-D grid of at most VOLUME_INTEGRATE_GROUPS_X groups per row for
+// integration, one invocation per stored block (capped at the capacity) for the range pass.
+TEST_F(GpuTest, IndirectDispatchTakesItsCountsFromTheGpu) {
+  auto pipeline = gpu::ComputePipeline::create(
+      context_, {"volume_dispatch_args", 2, sizeof(gpu::layout::VolumeArgsParams), 1, 1});
+  auto counters = gpu::Buffer::create(context_, VOLUME_COUNTERS * 4);
+  auto args = gpu::Buffer::create(context_, VOLUME_ARGS_WORDS * 4);
+  auto ones = gpu::Buffer::create(context_, 12);
+  auto seq = gpu::CommandSequence::create(context_, 3);
+  ASSERT_TRUE(pipeline.ok() && counters.ok() && args.ok() && ones.ok() && seq.ok());
+  for (const std::uint32_t capacity : {100000u, 1000u}) {
+    gpu::layout::VolumeArgsParams p{};
+    p.block_capacity = capacity;
+    ASSERT_TRUE(seq->begin().ok());
+    seq->fill(*counters, 70000, "counters");  // 70000 listed slots and allocated blocks
+    seq->fill(*ones, 1, "one group");
+    seq->dispatch_indirect(*pipeline, {&*counters, &*args}, p, *ones, 0, "args");
+    ASSERT_TRUE(seq->submit_and_wait().ok());
+    auto words = args->download_as<std::uint32_t>(VOLUME_ARGS_WORDS);
+    ASSERT_TRUE(words.ok());
+    EXPECT_EQ((*words)[VOLUME_ARGS_INTEGRATE], 32768u);
+    EXPECT_EQ((*words)[VOLUME_ARGS_INTEGRATE + 1], 3u);  // 3 x 32768 >= 70000
+    EXPECT_EQ((*words)[VOLUME_ARGS_INTEGRATE + 2], 1u);
+    EXPECT_EQ((*words)[VOLUME_ARGS_RANGE], (std::min(70000u, capacity) + 63) / 64);
+    EXPECT_EQ((*words)[VOLUME_ARGS_RANGE + 1], 1u);
+  }
+  ASSERT_TRUE(seq->begin().ok());
+  seq->dispatch_indirect(*pipeline, {&*counters, &*args}, gpu::layout::VolumeArgsParams{}, *ones, 4,
+                         "args out of range");
+  EXPECT_FALSE(seq->submit_and_wait().ok());
 }
 
 TEST_F(GpuTest, UnknownShaderIsAnError) {

@@ -129,8 +129,9 @@ struct ReconstructorConfig {
 /// Wall-clock milliseconds of a frame's stages (host + GPU), and the GPU time of each kernel
 /// where the device has timestamps.
 struct FrameTimings {
-  double preprocess_ms = 0;
+  double preprocess_ms = 0;  // upload and submission: its GPU work is waited for within icp_ms
   double icp_ms = 0;
+  /// Integration and raycast share one submission, split between them by their kernels' GPU time.
   double integrate_ms = 0;
   double raycast_ms = 0;
   double relocalize_ms = 0;  // the relocalization search with its raycasts and ICP, when it ran

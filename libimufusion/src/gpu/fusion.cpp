@@ -38,15 +38,16 @@ Result<TsdfFusion> TsdfFusion::create(const VolumeConfig& volume,
   auto pre = gpu::Preprocessor::create(impl->context, preprocess, intrinsics);
   if (!pre) return pre.error();
   impl->preprocess = std::move(*pre);
-  auto seq = gpu::CommandSequence::create(impl->context, impl->preprocess.dispatch_count());
+  auto seq = gpu::CommandSequence::create(
+      impl->context, impl->preprocess.dispatch_count() + gpu::TsdfVolume::kIntegrateDispatches);
   if (!seq) return seq.error();
   impl->preprocess_seq = std::move(*seq);
   auto vol = gpu::TsdfVolume::create(impl->context, volume, preprocess.workgroup_x,
                                      preprocess.workgroup_y);
   if (!vol) return vol.error();
   impl->volume = std::move(*vol);
-  auto color = gpu::Buffer::create(
-      impl->context, static_cast<std::size_t>(intrinsics.width) * intrinsics.height * 4);
+  auto color = gpu::Buffer::create(  // host-visible: read once per frame
+      impl->context, static_cast<std::size_t>(intrinsics.width) * intrinsics.height * 4, true);
   if (!color) return color.error();
   impl->color = std::move(*color);
   return TsdfFusion(std::move(impl));
@@ -63,17 +64,18 @@ Result<IntegrationStats> TsdfFusion::integrate(const DepthImage& depth, const Co
                           std::to_string(depth.width) + "x" + std::to_string(depth.height));
   }
   IMUFUSION_RETURN_IF_ERROR(m.preprocess.upload(depth));
+  if (color != nullptr) IMUFUSION_RETURN_IF_ERROR(gpu::upload_rgba(*color, m.color, m.rgba));
+  // Preprocessing and integration in one submission.
   IMUFUSION_RETURN_IF_ERROR(m.preprocess_seq.begin());
   m.preprocess.record(m.preprocess_seq);
-  auto t = m.preprocess_seq.submit_and_wait();
+  const Status recorded = m.volume.record_integrate(
+      m.preprocess_seq, m.preprocess.raw_depth_metres(), color != nullptr ? &m.color : nullptr,
+      m.intrinsics, T_world_camera);
+  auto t = m.preprocess_seq.submit_and_wait();  // ends the recording also after a failed record
+  IMUFUSION_RETURN_IF_ERROR(recorded);
   if (!t) return t.error();
   if (timings != nullptr) timings->insert(timings->end(), t->begin(), t->end());
-  if (color != nullptr) {
-    gpu::pack_rgba(*color, m.rgba);
-    IMUFUSION_RETURN_IF_ERROR(m.color.upload(m.rgba.data(), m.rgba.size() * 4));
-  }
-  return m.volume.integrate(m.preprocess.raw_depth_metres(), color != nullptr ? &m.color : nullptr,
-                            m.intrinsics, T_world_camera, timings);
+  return m.volume.finish_integrate();
 }
 
 Result<RaycastImages> TsdfFusion::raycast(const Eigen::Isometry3d& T_world_camera,

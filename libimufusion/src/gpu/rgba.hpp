@@ -4,12 +4,17 @@
 #include <cstdint>
 #include <vector>
 
+#include "imufusion/result.hpp"
 #include "imufusion/types.hpp"
+#include "vk/buffer.hpp"
 
 namespace imufusion::gpu {
 
 /// Packs an RGB8 image into `out` (resized), alpha 255.
 void pack_rgba(const ColorImage& image, std::vector<std::uint32_t>& out);
+/// Packs an RGB8 image into `buffer` as RGBA8 words: straight into its memory when it is
+/// host-visible, else through `scratch`.
+Status upload_rgba(const ColorImage& image, Buffer& buffer, std::vector<std::uint32_t>& scratch);
 /// Unpacks RGBA8 words into an RGB8 image of the given size.
 ColorImage unpack_rgba(const std::vector<std::uint32_t>& rgba, int width, int height);
 

@@ -73,9 +73,12 @@ Result<TsdfVolume> TsdfVolume::create(std::shared_ptr<Context> context, const Vo
   IMUFUSION_RETURN_IF_ERROR(
       make({"volume_allocate", 7, sizeof(layout::VolumeAllocateParams), wx, wy}, v.allocate_));
   IMUFUSION_RETURN_IF_ERROR(
+      make({"volume_dispatch_args", 2, sizeof(layout::VolumeArgsParams), 1, 1}, v.args_pipeline_));
+  IMUFUSION_RETURN_IF_ERROR(
       make({"volume_integrate", 8, sizeof(layout::VolumeIntegrateParams), 8, 8}, v.integrate_));
-  IMUFUSION_RETURN_IF_ERROR(make(
-      {"volume_raycast_range", 4, sizeof(layout::VolumeRangeParams), 64, 1}, v.range_pipeline_));
+  IMUFUSION_RETURN_IF_ERROR(
+      make({"volume_raycast_range", 5, sizeof(layout::VolumeRangeParams), VOLUME_RANGE_GROUP, 1},
+           v.range_pipeline_));
   IMUFUSION_RETURN_IF_ERROR(
       make({"volume_raycast", 10, sizeof(layout::VolumeRaycastParams), wx, wy}, v.raycast_));
   auto alloc = [&](std::size_t bytes, Buffer& out, bool host_visible = false) -> Status {
@@ -99,7 +102,8 @@ Result<TsdfVolume> TsdfVolume::create(std::shared_ptr<Context> context, const Vo
   IMUFUSION_RETURN_IF_ERROR(
       alloc(std::size_t{config.block_capacity} * kBlockVoxels * 4, v.voxel_colors_));
   IMUFUSION_RETURN_IF_ERROR(alloc(4, v.no_color_));
-  auto seq = CommandSequence::create(context, 4);  // at most 3 per submission, see below
+  IMUFUSION_RETURN_IF_ERROR(alloc(VOLUME_ARGS_WORDS * 4, v.args_));
+  auto seq = CommandSequence::create(context, std::max(kIntegrateDispatches, kRaycastDispatches));
   if (!seq) return seq.error();
   v.seq_ = std::move(*seq);
   IMUFUSION_RETURN_IF_ERROR(v.reset());
@@ -123,6 +127,23 @@ Result<IntegrationStats> TsdfVolume::integrate(const Buffer& depth, const Buffer
                                                const Intrinsics& k,
                                                const Eigen::Isometry3d& T_world_camera,
                                                std::vector<KernelTiming>* timings) {
+  IMUFUSION_RETURN_IF_ERROR(seq_.begin());
+  const Status recorded = record_integrate(seq_, depth, color, k, T_world_camera);
+  auto t = seq_.submit_and_wait();  // ends the recording also after a failed record
+  IMUFUSION_RETURN_IF_ERROR(recorded);
+  if (!t) return t.error();
+  if (timings != nullptr) timings->insert(timings->end(), t->begin(), t->end());
+  return finish_integrate();
+}
+
+void TsdfVolume::record_args(CommandSequence& seq) {
+  layout::VolumeArgsParams p{};
+  p.block_capacity = config_.block_capacity;
+  seq.dispatch(args_pipeline_, {&counters_, &args_}, p, 1, 1, "volume_dispatch_args");
+}
+
+Status TsdfVolume::record_integrate(CommandSequence& seq, const Buffer& depth, const Buffer* color,
+                                    const Intrinsics& k, const Eigen::Isometry3d& T_world_camera) {
   if (!T_world_camera.matrix().allFinite())
     return make_error(ErrorCode::kInvalidArgument, "integration pose is not finite");
   // Only the allocation count carries over from frame to frame; the counters are set in the same
@@ -144,24 +165,11 @@ Result<IntegrationStats> TsdfVolume::integrate(const Buffer& depth, const Buffer
   ap.hash_mask = config_.hash_slots - 1;
   ap.block_capacity = config_.block_capacity;
   ap.frame_stamp = frame_stamp_;
-  IMUFUSION_RETURN_IF_ERROR(seq_.begin());
-  seq_.copy(counters_start_, counters_, sizeof(counters), "volume_counters");
-  seq_.dispatch(allocate_,
-                {&depth, &keys_, &values_, &stamps_, &visible_, &counters_, &block_slots_}, ap,
-                ap.width, ap.height, "volume_allocate");
-  seq_.copy(counters_, counters_readback_, sizeof(counters), "volume_counters");
-  auto t1 = seq_.submit_and_wait();
-  if (!t1) return t1.error();
-  if (timings != nullptr) timings->insert(timings->end(), t1->begin(), t1->end());
-  IMUFUSION_RETURN_IF_ERROR(counters_readback_.download(counters, sizeof(counters)));
-  allocated_counter_ = counters[VOLUME_COUNTER_ALLOCATED];
-
-  IntegrationStats stats;
-  const std::uint32_t listed = counters[VOLUME_COUNTER_VISIBLE];  // touched slots, <= hash_slots
-  stats.allocated_blocks = allocated_blocks();
-  stats.table_full = counters[VOLUME_COUNTER_TABLE_FULL];
-  stats.out_of_range = counters[VOLUME_COUNTER_OUT_OF_RANGE];
-  if (listed == 0) return stats;
+  seq.copy(counters_start_, counters_, sizeof(counters), "volume_counters");
+  seq.dispatch(allocate_,
+               {&depth, &keys_, &values_, &stamps_, &visible_, &counters_, &block_slots_}, ap,
+               ap.width, ap.height, "volume_allocate");
+  record_args(seq);
 
   layout::VolumeIntegrateParams ip{};
   set_intrinsics(ip, k);
@@ -169,21 +177,26 @@ Result<IntegrationStats> TsdfVolume::integrate(const Buffer& depth, const Buffer
   ip.voxel_size = config_.voxel_size;
   ip.truncation = config_.truncation();
   ip.max_weight = static_cast<std::uint32_t>(config_.max_weight);
-  ip.visible_count = listed;
   ip.has_color = color != nullptr ? 1u : 0u;
-  IMUFUSION_RETURN_IF_ERROR(seq_.begin());
-  // One 8x8 workgroup per listed slot, on a 2-D grid of groups (x at most 32768 wide).
-  const std::uint32_t groups_x = std::min<std::uint32_t>(listed, 32768);
-  const std::uint32_t groups_y = (listed + groups_x - 1) / groups_x;
-  seq_.dispatch(integrate_,
-                {&depth, color != nullptr ? color : &no_color_, &keys_, &values_, &visible_,
-                 &tsdf_weight_, &voxel_colors_, &counters_},
-                ip, 8 * groups_x, 8 * groups_y, "volume_integrate");
-  seq_.copy(counters_, counters_readback_, sizeof(counters), "volume_counters");
-  auto t2 = seq_.submit_and_wait();
-  if (!t2) return t2.error();
-  if (timings != nullptr) timings->insert(timings->end(), t2->begin(), t2->end());
-  IMUFUSION_RETURN_IF_ERROR(counters_readback_.download(counters, sizeof(counters)));
+  // One 8x8 workgroup per listed slot, counted on the GPU (volume_dispatch_args).
+  seq.dispatch_indirect(integrate_,
+                        {&depth, color != nullptr ? color : &no_color_, &keys_, &values_, &visible_,
+                         &tsdf_weight_, &voxel_colors_, &counters_},
+                        ip, args_, VOLUME_ARGS_INTEGRATE * 4, "volume_integrate");
+  seq.copy(counters_, counters_readback_, sizeof(counters), "volume_counters");
+  return {};
+}
+
+IntegrationStats TsdfVolume::finish_integrate() {
+  std::uint32_t counters[VOLUME_COUNTERS] = {};
+  // Host-visible: the download is a copy from mapped memory and cannot fail once mapped.
+  (void)counters_readback_.download(counters, sizeof(counters));
+  allocated_counter_ = counters[VOLUME_COUNTER_ALLOCATED];
+  IntegrationStats stats;
+  const std::uint32_t listed = counters[VOLUME_COUNTER_VISIBLE];  // touched slots, <= hash_slots
+  stats.allocated_blocks = allocated_blocks();
+  stats.table_full = counters[VOLUME_COUNTER_TABLE_FULL];
+  stats.out_of_range = counters[VOLUME_COUNTER_OUT_OF_RANGE];
   // Every touched block is either fused or counted as refused by the full pool.
   stats.pool_full = counters[VOLUME_COUNTER_POOL_FULL];
   stats.visible_blocks = listed - stats.pool_full;
@@ -194,6 +207,20 @@ Status TsdfVolume::raycast(const Intrinsics& k, const Eigen::Isometry3d& T_world
                            float near_depth, float far_depth, const Buffer& vertices,
                            const Buffer& normals, const Buffer& shaded, const Buffer& colors,
                            std::vector<KernelTiming>* timings) {
+  IMUFUSION_RETURN_IF_ERROR(seq_.begin());
+  const Status recorded = record_raycast(seq_, k, T_world_camera, near_depth, far_depth, vertices,
+                                         normals, shaded, colors);
+  auto t = seq_.submit_and_wait();
+  IMUFUSION_RETURN_IF_ERROR(recorded);
+  if (!t) return t.error();
+  if (timings != nullptr) timings->insert(timings->end(), t->begin(), t->end());
+  return {};
+}
+
+Status TsdfVolume::record_raycast(CommandSequence& seq, const Intrinsics& k,
+                                  const Eigen::Isometry3d& T_world_camera, float near_depth,
+                                  float far_depth, const Buffer& vertices, const Buffer& normals,
+                                  const Buffer& shaded, const Buffer& colors) {
   if (!T_world_camera.matrix().allFinite())
     return make_error(ErrorCode::kInvalidArgument, "raycast pose is not finite");
   layout::VolumeRaycastParams rp{};
@@ -213,20 +240,15 @@ Status TsdfVolume::raycast(const Intrinsics& k, const Eigen::Isometry3d& T_world
   qp.voxel_size = config_.voxel_size;
   qp.near_depth = near_depth;
   qp.range_width = rp.range_width;
-  qp.block_count = allocated_blocks();
-  IMUFUSION_RETURN_IF_ERROR(seq_.begin());
-  seq_.fill(range_, 0, "volume_raycast_range_clear");
-  if (qp.block_count > 0) {
-    seq_.dispatch(range_pipeline_, {&keys_, &values_, &block_slots_, &range_}, qp, qp.block_count,
-                  1, "volume_raycast_range");
-  }
-  seq_.dispatch(raycast_,
-                {&keys_, &values_, &tsdf_weight_, &voxel_colors_, &vertices, &normals, &shaded,
-                 &colors, &range_, &steps_},
-                rp, rp.width, rp.height, "volume_raycast");
-  auto t = seq_.submit_and_wait();
-  if (!t) return t.error();
-  if (timings != nullptr) timings->insert(timings->end(), t->begin(), t->end());
+  qp.block_capacity = config_.block_capacity;
+  record_args(seq);
+  seq.fill(range_, 0, "volume_raycast_range_clear");
+  seq.dispatch_indirect(range_pipeline_, {&keys_, &values_, &block_slots_, &range_, &counters_}, qp,
+                        args_, VOLUME_ARGS_RANGE * 4, "volume_raycast_range");
+  seq.dispatch(raycast_,
+               {&keys_, &values_, &tsdf_weight_, &voxel_colors_, &vertices, &normals, &shaded,
+                &colors, &range_, &steps_},
+               rp, rp.width, rp.height, "volume_raycast");
   return {};
 }
 

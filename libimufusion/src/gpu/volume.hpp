@@ -34,6 +34,21 @@ class TsdfVolume {
                  const Buffer& shaded, const Buffer& colors,
                  std::vector<KernelTiming>* timings = nullptr);
 
+  /// Dispatches record_integrate() and record_raycast() add to a sequence.
+  static constexpr std::uint32_t kIntegrateDispatches = 5, kRaycastDispatches = 4;
+
+  /// integrate() recorded into `seq` (kIntegrateDispatches) without submitting: once the submission
+  /// has completed, finish_integrate() returns its statistics. One integration may be in flight.
+  Status record_integrate(CommandSequence& seq, const Buffer& depth, const Buffer* color,
+                          const Intrinsics& intrinsics, const Eigen::Isometry3d& T_world_camera);
+  IntegrationStats finish_integrate();
+  /// raycast() recorded into `seq` (kRaycastDispatches) without submitting; it sees the blocks that
+  /// an integration recorded before it allocates.
+  Status record_raycast(CommandSequence& seq, const Intrinsics& intrinsics,
+                        const Eigen::Isometry3d& T_world_camera, float near_depth, float far_depth,
+                        const Buffer& vertices, const Buffer& normals, const Buffer& shaded,
+                        const Buffer& colors);
+
   /// March steps of each ray (row-major pixels) of the last raycast: where the time goes.
   Result<std::vector<std::uint32_t>> last_raycast_steps() const;
 
@@ -50,12 +65,14 @@ class TsdfVolume {
  private:
   /// Ensures range_ holds the range image of a width x height raycast.
   Status reserve_range(int width, int height);
+  /// Records the pass that turns the counters into the indirect workgroup counts (args_).
+  void record_args(CommandSequence& seq);
 
   std::shared_ptr<Context> context_;
   VolumeConfig config_;
-  ComputePipeline allocate_, integrate_, range_pipeline_, raycast_;
+  ComputePipeline allocate_, args_pipeline_, integrate_, range_pipeline_, raycast_;
   Buffer keys_, values_, stamps_, visible_, counters_, block_slots_, tsdf_weight_, voxel_colors_,
-      no_color_, range_, steps_;
+      no_color_, range_, steps_, args_;
   // Host-visible: the counters a frame starts from, and their copy after each pass (read by the
   // host without a transfer of its own).
   Buffer counters_start_, counters_readback_;

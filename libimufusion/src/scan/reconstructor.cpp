@@ -40,20 +40,28 @@ Status Reconstructor::Impl::check_frame(double timestamp, const DepthImage& dept
   return {};
 }
 
+// Uploads the frame and submits its preprocessing without waiting: the GPU work that follows on
+// the queue sees its results, and finish_preprocess() collects its timings.
 Status Reconstructor::Impl::preprocess(const DepthImage& depth, const ColorImage* rgb,
                                        FrameTimings& timings) {
+  IMUFUSION_RETURN_IF_ERROR(finish_preprocess(timings));  // its buffers are written again here
   const auto t0 = Clock::now();
   IMUFUSION_RETURN_IF_ERROR(current.upload(depth));
+  if (rgb != nullptr) IMUFUSION_RETURN_IF_ERROR(gpu::upload_rgba(*rgb, color, rgba));
   IMUFUSION_RETURN_IF_ERROR(preprocess_seq.begin());
   current.record(preprocess_seq, tracking_level);
-  auto t = preprocess_seq.submit_and_wait();
+  IMUFUSION_RETURN_IF_ERROR(preprocess_seq.submit());
+  timings.preprocess_ms += ms_since(t0);
+  return {};
+}
+
+Status Reconstructor::Impl::finish_preprocess(FrameTimings& timings) {
+  if (!preprocess_seq.pending()) return {};
+  const auto t0 = Clock::now();
+  auto t = preprocess_seq.wait();
   if (!t) return t.error();
   timings.kernels.insert(timings.kernels.end(), t->begin(), t->end());
-  if (rgb != nullptr) {
-    gpu::pack_rgba(*rgb, rgba);
-    IMUFUSION_RETURN_IF_ERROR(color.upload(rgba.data(), rgba.size() * 4));
-  }
-  timings.preprocess_ms = ms_since(t0);
+  timings.preprocess_ms += ms_since(t0);
   return {};
 }
 
@@ -63,7 +71,7 @@ Result<IntegrationStats> Reconstructor::Impl::integrate(bool with_color,
   const auto t0 = Clock::now();
   auto stats = volume.integrate(current.raw_depth_metres(), with_color ? &color : nullptr,
                                 config.intrinsics, T_world_camera, &timings.kernels);
-  timings.integrate_ms = ms_since(t0);
+  timings.integrate_ms += ms_since(t0);
   return stats;
 }
 
@@ -75,22 +83,50 @@ Status Reconstructor::Impl::raycast_model(const Intrinsics& k,
                         out.shaded, out.colors, timings);
 }
 
-// The model seen from the frame's final pose becomes the next frame's ICP reference.
-Status Reconstructor::Impl::update_reference(const Eigen::Isometry3d& T_world_camera,
-                                             FrameTimings& timings) {
+// Fuses the frame at T_world_camera (with `fuse`) and makes the model seen from there the next
+// frame's ICP reference, in one submission. The submission's wall time is split between
+// integrate_ms and raycast_ms by their kernels' GPU times.
+Result<std::optional<IntegrationStats>> Reconstructor::Impl::fuse_and_update_reference(
+    const Eigen::Isometry3d& T_world_camera, bool fuse, bool with_color, FrameTimings& timings) {
   const auto t0 = Clock::now();
   const Intrinsics k = config.intrinsics.at_level(tracking_level);
-  IMUFUSION_RETURN_IF_ERROR(
-      raycast_model(k, T_world_camera, depth_range(), model, &timings.kernels));
-  IMUFUSION_RETURN_IF_ERROR(reference_seq.begin());
-  reference.record_maps_from(reference_seq, model.vertices, model.normals, tracking_level);
-  auto t = reference_seq.submit_and_wait();
+  IMUFUSION_RETURN_IF_ERROR(fuse_seq.begin());
+  Status recorded;
+  if (fuse)
+    recorded =
+        volume.record_integrate(fuse_seq, current.raw_depth_metres(), with_color ? &color : nullptr,
+                                config.intrinsics, T_world_camera);
+  const std::size_t integrate_kernels = fuse ? gpu::TsdfVolume::kIntegrateDispatches : 0;
+  if (recorded.ok())
+    recorded = volume.record_raycast(fuse_seq, k, T_world_camera, depth_range().first,
+                                     depth_range().second, model.vertices, model.normals,
+                                     model.shaded, model.colors);
+  if (recorded.ok())
+    reference.record_maps_from(fuse_seq, model.vertices, model.normals, tracking_level);
+  auto t = fuse_seq.submit_and_wait();  // ends the recording also after a failed record
+  IMUFUSION_RETURN_IF_ERROR(recorded);
   if (!t) return t.error();
+  double integrate_gpu = 0, total_gpu = 0;
+  for (std::size_t i = 0; i < t->size(); ++i) {
+    total_gpu += (*t)[i].gpu_ms;
+    if (i < integrate_kernels) integrate_gpu += (*t)[i].gpu_ms;
+  }
+  const double wall = ms_since(t0);
+  const double integrate_share =
+      total_gpu > 0 ? integrate_gpu / total_gpu : (fuse ? 0.5 : 0.0);  // no timestamps: halves
+  timings.integrate_ms += wall * integrate_share;
+  timings.raycast_ms += wall * (1 - integrate_share);
   timings.kernels.insert(timings.kernels.end(), t->begin(), t->end());
   T_world_reference = T_world_camera;
   has_reference = true;
-  timings.raycast_ms += ms_since(t0);
-  return {};
+  if (!fuse) return std::optional<IntegrationStats>{};
+  return std::optional<IntegrationStats>{volume.finish_integrate()};
+}
+
+Status Reconstructor::Impl::update_reference(const Eigen::Isometry3d& T_world_camera,
+                                             FrameTimings& timings) {
+  auto updated = fuse_and_update_reference(T_world_camera, false, false, timings);
+  return updated ? Status{} : Status{updated.error()};
 }
 
 // The first frame against the model it alone made, at its own pose: what an aligned frame of
@@ -369,14 +405,13 @@ Status Reconstructor::Impl::fuse_and_record(const TrackingDecision& decision, do
   r.status = decision.status;
   r.source = decision.source;
   r.recovered = decision.recovered;
-  if (decision.fuse) {
-    auto stats = integrate(with_color, r.T_world_camera, r.timings);
-    if (!stats) return stats.error();
-    r.integration = *stats;
+  auto stats = fuse_and_update_reference(r.T_world_camera, decision.fuse, with_color, r.timings);
+  if (!stats) return stats.error();
+  if (*stats) {
+    r.integration = **stats;
     r.fused = true;
     field_current = false;
   }
-  IMUFUSION_RETURN_IF_ERROR(update_reference(r.T_world_camera, r.timings));
   if (decision.source == PoseSource::kInitial && decision.fuse)
     IMUFUSION_RETURN_IF_ERROR(pair_with_own_model(r.timings));
   trajectory.push_back({timestamp, r.T_world_camera});
@@ -423,6 +458,7 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
           (decision.source == PoseSource::kIcp || decision.source == PoseSource::kInitial),
       timestamp, r.T_world_camera);
   IMUFUSION_RETURN_IF_ERROR(m.fuse_and_record(decision, timestamp, color != nullptr, r));
+  IMUFUSION_RETURN_IF_ERROR(m.finish_preprocess(r.timings));
   r.inertial = m.inertial_status();
   r.timings.total_ms = ms_since(t0);
   return r;
@@ -461,6 +497,7 @@ Result<FrameResult> Reconstructor::fuse_with_pose(double timestamp, const DepthI
   IMUFUSION_RETURN_IF_ERROR(m.preprocess(depth, color, r.timings));
   auto stats = m.integrate(color != nullptr, T_world_camera, r.timings);
   if (!stats) return stats.error();
+  IMUFUSION_RETURN_IF_ERROR(m.finish_preprocess(r.timings));
   r.integration = *stats;
   r.fused = true;
   m.field_current = false;

@@ -53,9 +53,11 @@ Result<Reconstructor> Reconstructor::create(const ReconstructorConfig& config) {
   auto pre_seq = gpu::CommandSequence::create(m.context, m.current.dispatch_count());
   if (!pre_seq) return pre_seq.error();
   m.preprocess_seq = std::move(*pre_seq);
-  auto reference_seq = gpu::CommandSequence::create(m.context, m.reference.maps_dispatch_count());
-  if (!reference_seq) return reference_seq.error();
-  m.reference_seq = std::move(*reference_seq);
+  auto fuse_seq = gpu::CommandSequence::create(m.context, gpu::TsdfVolume::kIntegrateDispatches +
+                                                              gpu::TsdfVolume::kRaycastDispatches +
+                                                              m.reference.maps_dispatch_count());
+  if (!fuse_seq) return fuse_seq.error();
+  m.fuse_seq = std::move(*fuse_seq);
   auto icp_seq = gpu::CommandSequence::create(m.context, gpu::IcpKernels::kDispatches);
   if (!icp_seq) return icp_seq.error();
   m.icp_seq = std::move(*icp_seq);
@@ -68,7 +70,7 @@ Result<Reconstructor> Reconstructor::create(const ReconstructorConfig& config) {
                                         config.preprocess.workgroup_y);
   if (!volume) return volume.error();
   m.volume = std::move(*volume);
-  auto color = gpu::Buffer::create(m.context, pixels * 4);
+  auto color = gpu::Buffer::create(m.context, pixels * 4, true);  // read once per fused frame
   if (!color) return color.error();
   m.color = std::move(*color);
   auto model = RaycastBuffers::create(m.context, pixels);

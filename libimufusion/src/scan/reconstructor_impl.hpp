@@ -58,7 +58,8 @@ struct Reconstructor::Impl {
   gpu::Preprocessor current;    // the incoming frame
   gpu::Preprocessor reference;  // the model raycast the next frame is aligned to
   gpu::CommandSequence preprocess_seq;
-  gpu::CommandSequence reference_seq;  // the raycast maps into `reference`'s pyramid
+  // A fused frame's integration, the model raycast and its maps in `reference`'s pyramid.
+  gpu::CommandSequence fuse_seq;
   gpu::CommandSequence icp_seq;
   gpu::IcpKernels icp_kernels;
   gpu::TsdfVolume volume;
@@ -130,11 +131,14 @@ struct Reconstructor::Impl {
   // The per-frame pipeline (reconstructor.cpp).
   Status check_frame(double timestamp, const DepthImage& depth, const ColorImage* rgb) const;
   Status preprocess(const DepthImage& depth, const ColorImage* rgb, FrameTimings& timings);
+  Status finish_preprocess(FrameTimings& timings);
   Result<IntegrationStats> integrate(bool with_color, const Eigen::Isometry3d& T_world_camera,
                                      FrameTimings& timings);
   Status raycast_model(const Intrinsics& k, const Eigen::Isometry3d& T_world_camera,
                        std::pair<float, float> range, const RaycastBuffers& out,
                        std::vector<KernelTiming>* timings);
+  Result<std::optional<IntegrationStats>> fuse_and_update_reference(
+      const Eigen::Isometry3d& T_world_camera, bool fuse, bool with_color, FrameTimings& timings);
   Status update_reference(const Eigen::Isometry3d& T_world_camera, FrameTimings& timings);
   Status pair_with_own_model(FrameTimings& timings);
   std::size_t valid_depth_pixels(const DepthImage& depth) const;

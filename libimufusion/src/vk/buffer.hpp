@@ -32,6 +32,8 @@ class Buffer {
   VkBuffer handle() const { return buffer_; }
   VkDeviceSize size() const { return size_; }
   bool valid() const { return buffer_ != VK_NULL_HANDLE; }
+  /// The buffer's memory as the host sees it, or nullptr when it is not host-visible.
+  void* mapped() const { return mapped_; }
 
   Status upload(const void* data, VkDeviceSize bytes, VkDeviceSize offset = 0);
   Status download(void* data, VkDeviceSize bytes, VkDeviceSize offset = 0) const;

@@ -75,6 +75,7 @@ CommandSequence& CommandSequence::operator=(CommandSequence&& other) noexcept {
     labels_ = std::move(other.labels_);
     error_ = std::move(other.error_);
     recording_ = std::exchange(other.recording_, false);
+    pending_ = std::exchange(other.pending_, false);
   }
   return *this;
 }
@@ -83,6 +84,8 @@ void CommandSequence::release() {
   if (!context_) return;
   VkDevice device = context_->device();
   if (recording_) vkEndCommandBuffer(cmd_);
+  // A submitted sequence may still run: its command buffer and descriptors must outlive it.
+  if (pending_ && !context_->lost()) vkWaitForFences(device, 1, &fence_, VK_TRUE, kFenceTimeoutNs);
   if (queries_ != VK_NULL_HANDLE) vkDestroyQueryPool(device, queries_, nullptr);
   if (descriptor_pool_ != VK_NULL_HANDLE)
     vkDestroyDescriptorPool(device, descriptor_pool_, nullptr);
@@ -102,6 +105,7 @@ Status CommandSequence::begin() {
   if (ctx.lost())
     return make_error(ErrorCode::kDeviceLost, "device " + ctx.info().name + " was lost");
   if (recording_) return make_error(ErrorCode::kInternal, "begin() while already recording");
+  if (pending_) return make_error(ErrorCode::kInternal, "begin() before wait() on the submission");
   error_.reset();
   labels_.clear();
   VkResult result = vkResetDescriptorPool(ctx.device(), descriptor_pool_, 0);
@@ -122,7 +126,21 @@ void CommandSequence::dispatch(const ComputePipeline& pipeline,
                                std::initializer_list<const Buffer*> buffers,
                                const void* push_constants, std::uint32_t width,
                                std::uint32_t height, const std::string& label) {
+  record_dispatch(pipeline, buffers, push_constants, width, height, nullptr, 0, label);
+}
+
+void CommandSequence::record_dispatch(const ComputePipeline& pipeline,
+                                      std::initializer_list<const Buffer*> buffers,
+                                      const void* push_constants, std::uint32_t width,
+                                      std::uint32_t height, const Buffer* args, VkDeviceSize offset,
+                                      const std::string& label) {
   if (!check_room(label)) return;
+  if (args != nullptr && (!args->valid() || offset % 4 != 0 ||
+                          offset + sizeof(VkDispatchIndirectCommand) > args->size())) {
+    error_ = make_error(ErrorCode::kInternal, label + ": indirect arguments at byte " +
+                                                  std::to_string(offset) + " out of range");
+    return;
+  }
   const PipelineDesc& desc = pipeline.desc();
   if (buffers.size() != desc.buffer_count || buffers.size() > kMaxBuffersPerDispatch) {
     error_ = make_error(ErrorCode::kInternal, label + ": " + std::to_string(buffers.size()) +
@@ -178,14 +196,18 @@ void CommandSequence::dispatch(const ComputePipeline& pipeline,
   }
   const std::uint32_t groups_x = (width + desc.local_size_x - 1) / desc.local_size_x;
   const std::uint32_t groups_y = (height + desc.local_size_y - 1) / desc.local_size_y;
-  if (groups_x > 0 && groups_y > 0) vkCmdDispatch(cmd_, groups_x, groups_y, 1);
+  if (args != nullptr)
+    vkCmdDispatchIndirect(cmd_, args->handle(), offset);
+  else if (groups_x > 0 && groups_y > 0)
+    vkCmdDispatch(cmd_, groups_x, groups_y, 1);
   if (queries_ != VK_NULL_HANDLE)
     vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries_, 2 * index + 1);
 
-  // The next dispatch may read what this one wrote.
-  barrier(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
-          VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-          VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+  // The next dispatch may read what this one wrote, as data or as its indirect arguments.
+  barrier(
+      VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+      VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
+      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
   labels_.push_back(label);
 }
 
@@ -257,13 +279,21 @@ void CommandSequence::barrier(VkPipelineStageFlags src_stage, VkAccessFlags src_
 }
 
 Result<std::vector<KernelTiming>> CommandSequence::submit_and_wait() {
+  IMUFUSION_RETURN_IF_ERROR(submit());
+  return wait();
+}
+
+Status CommandSequence::submit() {
   if (!recording_) return make_error(ErrorCode::kInternal, "submit without begin()");
   Context& ctx = *context_;
-  // Results written by the shaders and copies become visible to host reads and transfers.
+  // Results written by the shaders and copies become visible to host reads, to transfers and to
+  // the dispatches of later submissions on the queue.
   barrier(VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
           VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
-          VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
-          VK_ACCESS_HOST_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT);
+          VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT |
+              VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
+          VK_ACCESS_HOST_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_SHADER_READ_BIT |
+              VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
   VkResult result = vkEndCommandBuffer(cmd_);
   recording_ = false;
   if (error_) return *error_;
@@ -277,7 +307,15 @@ Result<std::vector<KernelTiming>> CommandSequence::submit_and_wait() {
   if (result != VK_SUCCESS) return ctx.fail(result, "vkResetFences");
   result = ctx.submit(submit, fence_);
   if (result != VK_SUCCESS) return ctx.fail(result, "vkQueueSubmit");
-  result = vkWaitForFences(ctx.device(), 1, &fence_, VK_TRUE, kFenceTimeoutNs);
+  pending_ = true;
+  return {};
+}
+
+Result<std::vector<KernelTiming>> CommandSequence::wait() {
+  if (!pending_) return make_error(ErrorCode::kInternal, "wait() without submit()");
+  Context& ctx = *context_;
+  VkResult result = vkWaitForFences(ctx.device(), 1, &fence_, VK_TRUE, kFenceTimeoutNs);
+  pending_ = false;
   if (result != VK_SUCCESS) return ctx.fail(result, "waiting for the GPU (vkWaitForFences)");
 
   std::vector<KernelTiming> timings;

@@ -1,7 +1,8 @@
 #pragma once
 // Records a sequence of compute dispatches into one command buffer, with a memory barrier after
 // each, GPU timestamps around each, and descriptor sets from a pool reset at every begin().
-// submit_and_wait() returns the per-kernel GPU times.
+// submit_and_wait() (or submit(), then wait()) returns the per-kernel GPU times. Work submitted
+// later on the same queue sees everything a sequence wrote, waited for or not.
 
 #include <vulkan/vulkan.h>
 
@@ -46,6 +47,15 @@ class CommandSequence {
                 const std::string& label) {
     dispatch(pipeline, buffers, static_cast<const void*>(&push), width, height, label);
   }
+  /// Records one dispatch whose workgroup counts (VkDispatchIndirectCommand) the GPU reads from
+  /// `args` at byte `offset` when it runs: written by an earlier dispatch of this or an earlier
+  /// submission.
+  template <typename Push>
+  void dispatch_indirect(const ComputePipeline& pipeline,
+                         std::initializer_list<const Buffer*> buffers, const Push& push,
+                         const Buffer& args, VkDeviceSize offset, const std::string& label) {
+    record_dispatch(pipeline, buffers, static_cast<const void*>(&push), 0, 0, &args, offset, label);
+  }
   /// Records a copy of the first `bytes` of `src` into `dst`, ordered after the dispatches before
   /// it and before those after it; counts as one dispatch (timed, labelled).
   void copy(const Buffer& src, const Buffer& dst, VkDeviceSize bytes, const std::string& label);
@@ -53,9 +63,19 @@ class CommandSequence {
   void fill(const Buffer& buffer, std::uint32_t value, const std::string& label);
   /// Ends recording, submits, waits for completion, and returns one timing per dispatch.
   Result<std::vector<KernelTiming>> submit_and_wait();
+  /// Ends recording and submits without waiting; wait() must follow before the next begin().
+  Status submit();
+  /// Waits for the submitted sequence and returns one timing per dispatch.
+  Result<std::vector<KernelTiming>> wait();
+  /// Submitted and not yet waited for.
+  bool pending() const { return pending_; }
 
  private:
   void release();
+  void record_dispatch(const ComputePipeline& pipeline,
+                       std::initializer_list<const Buffer*> buffers, const void* push_constants,
+                       std::uint32_t width, std::uint32_t height, const Buffer* args,
+                       VkDeviceSize offset, const std::string& label);
   bool check_room(const std::string& label);
   void record_transfer(const std::string& label, VkAccessFlags access,
                        const std::function<void()>& command);
@@ -72,6 +92,7 @@ class CommandSequence {
   std::vector<std::string> labels_;
   std::optional<Error> error_;
   bool recording_ = false;
+  bool pending_ = false;
 };
 
 }  // namespace imufusion::gpu
