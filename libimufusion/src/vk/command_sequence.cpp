@@ -238,7 +238,8 @@ void CommandSequence::fill(const Buffer& buffer, std::uint32_t value, const std:
 }
 
 // A transfer command between the dispatches, timed and labelled like one: after the shader
-// writes before it (`access`: what the command does), its writes visible to the shaders after it.
+// writes before it (`access`: what the command does), its writes visible to the shaders and
+// indirect dispatches after it.
 void CommandSequence::record_transfer(const std::string& label, VkAccessFlags access,
                                       const std::function<void()>& command) {
   const auto index = static_cast<std::uint32_t>(labels_.size());
@@ -248,8 +249,9 @@ void CommandSequence::record_transfer(const std::string& label, VkAccessFlags ac
           VK_PIPELINE_STAGE_TRANSFER_BIT, access);
   command();
   barrier(VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
-          VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-          VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+          VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
+          VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT |
+              VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
   if (queries_ != VK_NULL_HANDLE)
     vkCmdWriteTimestamp(cmd_, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries_, 2 * index + 1);
   labels_.push_back(label);
