@@ -16,7 +16,7 @@
 #include <cstdint>
 #include <random>
 
-#include "core/map_pyramid.hpp"
+#include "reference/map_pyramid.hpp"
 #include "gpu/preprocessor.hpp"
 #include "gpu_test_env.hpp"
 #include "reference/preprocess_reference.hpp"

@@ -1,6 +1,6 @@
 // Vertex/normal map pyramids (frame-to-model references) keep surfaces apart at depth jumps.
 
-#include "core/map_pyramid.hpp"
+#include "reference/map_pyramid.hpp"
 
 #include <gtest/gtest.h>
 

@@ -3,7 +3,6 @@
 #include <string>
 #include <utility>
 
-#include "core/map_pyramid.hpp"
 #include "imufusion_layouts.h"
 
 namespace imufusion {
@@ -120,7 +119,8 @@ Status Preprocessor::upload(const DepthImage& depth) {
   return raw_.upload(depth.data.data(), depth.data.size() * sizeof(std::uint16_t));
 }
 
-Status Preprocessor::upload_maps(const Vec4Image& vertices, const Vec4Image& normals) {
+Status Preprocessor::upload_maps(CommandSequence& seq, const Vec4Image& vertices,
+                                 const Vec4Image& normals) {
   const Intrinsics& k = levels_.front();
   const auto pixels = static_cast<std::size_t>(k.width) * k.height;
   if (vertices.width != k.width || vertices.height != k.height || normals.width != k.width ||
@@ -131,14 +131,13 @@ Status Preprocessor::upload_maps(const Vec4Image& vertices, const Vec4Image& nor
                           std::to_string(vertices.height) + ", the tracker was made for " +
                           std::to_string(k.width) + "x" + std::to_string(k.height));
   }
-  const auto pyramid =
-      build_map_pyramid(vertices, normals, config_.levels, config_.max_jump_fraction);
-  for (std::size_t l = 0; l < pyramid.size(); ++l) {
-    const auto bytes = pyramid[l].vertices.data.size() * sizeof(Eigen::Vector4f);
-    IMUFUSION_RETURN_IF_ERROR(vertices_[l].upload(pyramid[l].vertices.data.data(), bytes));
-    IMUFUSION_RETURN_IF_ERROR(normals_[l].upload(pyramid[l].normals.data.data(), bytes));
-  }
-  return {};
+  const auto bytes = vertices.data.size() * sizeof(Eigen::Vector4f);
+  IMUFUSION_RETURN_IF_ERROR(vertices_[0].upload(vertices.data.data(), bytes));
+  IMUFUSION_RETURN_IF_ERROR(normals_[0].upload(normals.data.data(), bytes));
+  IMUFUSION_RETURN_IF_ERROR(seq.begin());
+  record_map_pyramid(seq, 0);
+  auto t = seq.submit_and_wait();
+  return t ? Status{} : Status{t.error()};
 }
 
 layout::PyramidDownParams Preprocessor::pyramid_down(int level) const {
@@ -155,6 +154,10 @@ void Preprocessor::record_maps_from(CommandSequence& seq, const Buffer& vertices
   const std::string label = level_label("reference_copy", first_level);
   seq.copy(vertices, vertices_[first], vertices_[first].size(), label);
   seq.copy(normals, normals_[first], normals_[first].size(), label);
+  record_map_pyramid(seq, first_level);
+}
+
+void Preprocessor::record_map_pyramid(CommandSequence& seq, int first_level) const {
   for (int level = first_level + 1; level < config_.levels; ++level) {
     const auto l = static_cast<std::size_t>(level);
     const layout::PyramidDownParams down = pyramid_down(level);

@@ -22,12 +22,13 @@ class Preprocessor {
   /// Uploads `depth` into the raw buffer (sizes are checked).
   Status upload(const DepthImage& depth);
   /// Uploads ready-made level-0 vertex and normal maps (e.g. a model raycast) instead of a depth
-  /// image, with the coarser levels built on the host (core/map_pyramid.hpp). The depth buffers
-  /// are left as they were.
-  Status upload_maps(const Vec4Image& vertices, const Vec4Image& normals);
+  /// image; the coarser levels are built on the GPU as by record_maps_from(), in one submission
+  /// of `seq` (at least maps_dispatch_count() dispatches). The depth buffers are left as they were.
+  Status upload_maps(CommandSequence& seq, const Vec4Image& vertices, const Vec4Image& normals);
   /// Records the copy of full-resolution maps already on the GPU (a model raycast, float4 per
-  /// pixel) into level 0 and the coarser levels built from them on the GPU by upload_maps' rule
-  /// (shaders/map_pyramid_down.comp): no host round trip. The depth buffers are left as they were.
+  /// pixel) into level 0 and the coarser levels built from them on the GPU
+  /// (shaders/map_pyramid_down.comp, host reference in reference/map_pyramid.hpp): no host round
+  /// trip. The depth buffers are left as they were.
   /// `first_level`: the maps are of that level's size and fill it and the coarser ones.
   void record_maps_from(CommandSequence& seq, const Buffer& vertices, const Buffer& normals,
                         int first_level = 0) const;
@@ -51,6 +52,8 @@ class Preprocessor {
  private:
   /// The 2x2 reduction from `level - 1` to `level` (depth and map pyramids alike).
   layout::PyramidDownParams pyramid_down(int level) const;
+  /// Records the map pyramid's levels below `first_level`, built from it on the GPU.
+  void record_map_pyramid(CommandSequence& seq, int first_level) const;
 
   PreprocessConfig config_;
   std::vector<Intrinsics> levels_;

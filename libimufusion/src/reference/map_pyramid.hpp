@@ -1,6 +1,7 @@
 #pragma once
-// Pyramids of vertex and normal maps given at full resolution (e.g. a raycast of the model),
-// built with the rule of the depth pyramid (shaders/pyramid_down.comp): each coarser pixel
+// The host reference of the GPU's map pyramid (shaders/map_pyramid_down.comp): pyramids of
+// vertex and normal maps given at full resolution (e.g. a raycast of the model), built with the
+// rule of the depth pyramid (shaders/pyramid_down.comp): each coarser pixel
 // averages the valid entries of its 2x2 block whose depth lies within max_jump_fraction of the
 // block's nearest depth; normals are averaged and renormalized.
 

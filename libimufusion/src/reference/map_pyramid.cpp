@@ -1,4 +1,4 @@
-#include "core/map_pyramid.hpp"
+#include "reference/map_pyramid.hpp"
 
 #include <array>
 #include <cmath>
