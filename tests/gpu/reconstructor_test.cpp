@@ -38,6 +38,40 @@ TEST_F(ReconstructorTest, TracksTheRoomWithTheImuInTwoIterationsPerFrame) {
   EXPECT_EQ(rec.validation_error_count(), 0u);
 }
 
+// The second frame, made to pair less than the pairing tests ask (their thresholds raised to
+// what the first frame pairs with its own model): with the IMU, its converged alignment is kept
+// for its agreement with the gyro's rotation, before any translation is predicted; without the
+// IMU the same frame is lost.
+TEST_F(ReconstructorTest, TheGyroConfirmsTheFirstAlignmentBeforeATranslationIsPredicted) {
+  for (const bool imu : {true, false}) {
+    ReconstructorConfig c = config(imu, imu ? 2 : 30);
+    c.icp.reliability.min_inlier_fraction = 0.99;
+    c.icp.reliability.min_pixel_fraction = 0.99;
+    c.tracking.pairing_ratio = 1.0;
+    c.tracking.pairing_floor = 0.0;
+    Reconstructor rec = make(c);
+    std::vector<FrameResult> results;
+    for (std::size_t i = 0; i < 2; ++i) {
+      const Frame& f = frames_[i];
+      auto r = rec.track_and_fuse(f.timestamp, f.depth, nullptr, f.imu);
+      ASSERT_TRUE(r.ok()) << r.error().describe();
+      results.push_back(*r);
+    }
+    const FrameResult& second = results[1];
+    EXPECT_FALSE(second.imu.translation_predicted);
+    if (imu) {
+      EXPECT_TRUE(second.icp.quality.converged);
+      EXPECT_EQ(second.status, TrackingStatus::kTracking) << second.icp.reason;
+      EXPECT_TRUE(second.icp.quality.agreed_with_seed);
+      EXPECT_GT(second.icp.quality.seed_chi2, 0.0);
+      EXPECT_LT(position_error(rec.trajectory().back()), 0.01);
+    } else {
+      EXPECT_NE(second.status, TrackingStatus::kTracking);
+      EXPECT_NE(second.icp.reason.find("fraction"), std::string::npos) << second.icp.reason;
+    }
+  }
+}
+
 TEST_F(ReconstructorTest, WithoutTheSeedsReachTheImuSeededBudgetStartsOnThePyramid) {
   // imu.seed_reach_pixels 0: the 2-step budget keeps one step for full resolution and spends
   // the other at the next coarser level.

@@ -74,9 +74,8 @@ Status IcpTracker::set_reference(const DepthImage& depth) {
 }
 
 Status IcpTracker::set_reference_maps(const Vec4Image& vertices, const Vec4Image& normals) {
-  IMUFUSION_RETURN_IF_ERROR(
-      impl_->frames[static_cast<std::size_t>(impl_->reference)].upload_maps(impl_->preprocess_seq,
-                                                                            vertices, normals));
+  IMUFUSION_RETURN_IF_ERROR(impl_->frames[static_cast<std::size_t>(impl_->reference)].upload_maps(
+      impl_->preprocess_seq, vertices, normals));
   impl_->has_reference = true;
   return {};
 }

@@ -129,135 +129,6 @@ Status Reconstructor::Impl::update_reference(const Eigen::Isometry3d& T_world_ca
   return updated ? Status{} : Status{updated.error()};
 }
 
-// The first frame against the model it alone made, at its own pose: what an aligned frame of
-// this sensor and scene pairs, the pairing reference until tracked frames replace it.
-Status Reconstructor::Impl::pair_with_own_model(FrameTimings& timings) {
-  gpu::GpuNormalEquationSource source(icp_kernels, icp_seq, current, reference, &timings.kernels,
-                                      tracking_level);
-  const float min_cos =
-      static_cast<float>(std::cos(config.icp.max_normal_angle_deg[0] * M_PI / 180.0));
-  auto eq = source.evaluate(0, Eigen::Isometry3d::Identity(), config.icp.max_distance[0], min_cos);
-  if (!eq) return eq.error();
-  if (eq->valid_pixels > 0 && eq->valid_information > 0)
-    pairing.add(eq->inlier_fraction(), eq->pixel_fraction());
-  return {};
-}
-
-std::size_t Reconstructor::Impl::valid_depth_pixels(const DepthImage& depth) const {
-  const double scale = 1.0 / depth.depth_scale;
-  return static_cast<std::size_t>(
-      std::count_if(depth.data.begin(), depth.data.end(),
-                    [&](std::uint16_t raw) { return valid_depth(raw, raw * scale); }));
-}
-
-// The reliability thresholds for this frame: the residual test widened to its depth noise,
-// the pairing tests lowered to what this scan's aligned frames pair.
-IcpReliabilityThresholds Reconstructor::Impl::reliability(const DepthImage& depth) const {
-  IcpReliabilityThresholds t =
-      config.icp.reliability.widened_to_noise(config.icp.depth_noise.mean_variance(
-          depth, config.preprocess.min_depth, config.preprocess.max_depth));
-  pairing.apply(t.min_inlier_fraction, t.min_pixel_fraction);
-  return t;
-}
-
-// The coarsest pyramid level ICP needs from an inertial seed (ReconstructorConfig::
-// imu.seed_reach_pixels): the finest level at which 3 sigma of the seed's image motion, at
-// the frame's median depth, is within the reach.
-int Reconstructor::Impl::seed_start_level(const MotionPrediction& prediction,
-                                          const DepthImage& depth) const {
-  const int coarsest = config.preprocess.levels - 1 - tracking_level;  // ICP's levels
-  const double reach = config.imu.seed_reach_pixels;
-  std::vector<double> z;
-  const double scale = 1.0 / depth.depth_scale;
-  for (std::size_t i = 0; i < depth.data.size(); i += 7) {  // a sample is enough for a median
-    const double d = depth.data[i] * scale;
-    if (valid_depth(depth.data[i], d)) z.push_back(d);
-  }
-  if (z.empty()) return coarsest;
-  std::nth_element(z.begin(), z.begin() + static_cast<std::ptrdiff_t>(z.size() / 2), z.end());
-  const double f =
-      std::ldexp(std::max(config.intrinsics.fx, config.intrinsics.fy), -tracking_level);
-  const double motion =
-      3 * f * (prediction.rotation_sigma + prediction.translation_sigma / z[z.size() / 2]);
-  int level = 0;
-  while (level < coarsest && motion > reach * std::ldexp(1.0, level)) ++level;
-  return level;
-}
-
-// ICP of the current frame against the reference from a seed; `settling`: the budget and
-// convergence thresholds of a frame that must first settle onto the model (lost or
-// recovering).
-Result<IcpResult> Reconstructor::Impl::align(const DepthImage& depth,
-                                             const Eigen::Isometry3d& T_world_seed,
-                                             const MotionPrediction& prediction, bool settling,
-                                             FrameTimings& timings) {
-  const auto t0 = Clock::now();
-  IcpConfig icp = config.icp;
-  icp.keep_seed_in_degenerate_directions =
-      config.imu.partial_icp && prediction.rotation_from_imu && prediction.translation_predicted;
-  icp.reliability = reliability(depth);
-  // The prediction measures the motion only while tracking: a lost or recovering frame's seed
-  // carries the whole drift of dead reckoning, not one frame's prediction error.
-  const bool on_prediction =
-      prediction.rotation_from_imu && prediction.translation_predicted && !settling;
-  // The seed gate also needs a velocity settled by the accelerometer: one from one or two
-  // tracked pairs carries their error into the seed.
-  icp.seed_gate = config.imu.seed_gate && icp.keep_seed_in_degenerate_directions && on_prediction &&
-                  prediction.translation_inertial;
-  icp.seed_prior = config.imu.prior && on_prediction;
-  if (on_prediction) {  // the gate runs only on a prediction too
-    icp.seed_sigma_rotation = prediction.rotation_sigma;
-    icp.seed_sigma_translation = prediction.translation_sigma;
-    // A translation held from the tracked velocity is a guess, not a measurement: the prior
-    // then says only that the device moved no faster than a hand-held one can.
-    if (!prediction.translation_inertial && !icp.seed_gate)
-      icp.seed_sigma_translation =
-          std::max(prediction.translation_sigma, config.inertial.max_speed * frame_interval);
-    // The agreement test and the prior take the sigmas as off as this scan shows them to be.
-    if (!icp.seed_gate) {
-      icp.seed_sigma_rotation *= prediction_calibration.scale();
-      icp.seed_sigma_translation *= prediction_calibration.scale();
-    }
-    const int window = 2 * config.preprocess.bilateral_radius + 1;
-    icp.correlated_pixels = std::max(1, window * window);
-    if (seed_gate_holding) icp.seed_gate_sigmas = icp.seed_gate_hold_sigmas;
-  }
-  // Pixels sharing one depth error at ICP's level 0: a quarter per pyramid level coarser.
-  icp.correlated_pixels = std::max(1.0, std::ldexp(icp.correlated_pixels, -2 * tracking_level));
-  // With the gyro's rotation but no predicted translation (the first tracked frames), the seed
-  // is still within the finest level's reach while tracking (bench/README.md: room and fast
-  // scans, 2 iterations per frame).
-  if (prediction.rotation_from_imu && !settling && config.imu.seed_reach_pixels > 0) {
-    const int start = on_prediction ? seed_start_level(prediction, depth) : 0;
-    std::fill(icp.iterations_per_level.begin() + start + 1, icp.iterations_per_level.end(), 0);
-  }
-  // The budget and convergence thresholds of a frame that must settle onto the model.
-  const auto settling_budget = [&](IcpConfig c) {
-    c.max_total_iterations = std::max(c.max_total_iterations, config.recovery.icp_iterations);
-    c.converged_rotation = std::max(c.converged_rotation, config.recovery.converged_rotation);
-    c.converged_translation =
-        std::max(c.converged_translation, config.recovery.converged_translation);
-    return c;
-  };
-  if (settling) icp = settling_budget(icp);
-  gpu::GpuNormalEquationSource source(icp_kernels, icp_seq, current, reference, &timings.kernels,
-                                      tracking_level);
-  const Eigen::Isometry3d T_ref_seed = T_world_reference.inverse() * T_world_seed;
-  auto result = run_icp(source, icp, T_ref_seed);
-  // A tracked frame that the per-frame budget left unconverged and unreliable is given the
-  // settling budget from the same seed before it counts as lost: the tests judge an alignment,
-  // not an unfinished one.
-  const IcpConfig retry = settling_budget(icp);
-  if (result && !settling && !result->reliable() && !result->partial() &&
-      !result->quality.converged && retry.max_total_iterations > icp.max_total_iterations) {
-    const int spent = result->quality.iterations;
-    result = run_icp(source, retry, T_ref_seed);
-    if (result) result->quality.iterations += spent;
-  }
-  timings.icp_ms += ms_since(t0);
-  return result;
-}
-
 // The mean motion over the frames tracked in a row before this one, scaled to `interval` (s);
 // the identity with an IMU, with TrackingConfig::constant_velocity_pairs 0, or when the previous
 // two frames were not both tracked.
@@ -336,7 +207,9 @@ Result<TrackingDecision> Reconstructor::Impl::track_frame(double timestamp, cons
   if (decision.status == TrackingStatus::kTracking && decision.source == PoseSource::kIcp &&
       !icp->quality.agreed_with_seed) {
     pairing.add(icp->quality.inlier_fraction, icp->quality.pixel_fraction);
-    if (icp->quality.seed_chi2 > 0 && icp->quality.seed_gated_directions == 0)
+    // Only against a whole prediction: the first frames' translation sigma is a bound.
+    if (icp->quality.seed_chi2 > 0 && icp->quality.seed_gated_directions == 0 &&
+        r.imu.translation_predicted)
       prediction_calibration.add(icp->quality.seed_chi2);
   }
   seed_gate_holding =

@@ -1,6 +1,7 @@
 #pragma once
 // Reconstructor::Impl, the state behind the Reconstructor facade: the per-frame pipeline is in
-// reconstructor.cpp, relocalization and the lost-stretch correction in reconstructor_recovery.cpp.
+// reconstructor.cpp, the alignment of a frame in reconstructor_align.cpp, relocalization and the
+// lost-stretch correction in reconstructor_recovery.cpp.
 
 #include <algorithm>
 #include <chrono>
