@@ -16,9 +16,9 @@
 #include <cstdint>
 #include <random>
 
-#include "reference/map_pyramid.hpp"
 #include "gpu/preprocessor.hpp"
 #include "gpu_test_env.hpp"
+#include "reference/map_pyramid.hpp"
 #include "reference/preprocess_reference.hpp"
 #include "vk/command_sequence.hpp"
 
