@@ -129,7 +129,7 @@ struct ReconstructorConfig {
 /// Wall-clock milliseconds of a frame's stages (host + GPU), and the GPU time of each kernel
 /// where the device has timestamps.
 struct FrameTimings {
-  double preprocess_ms = 0;  // upload and submission: its GPU work is waited for within icp_ms
+  double preprocess_ms = 0;  // upload and submit; its GPU time falls in the next stage's wait
   double icp_ms = 0;
   /// Integration and raycast share one submission, split between them by their kernels' GPU time.
   double integrate_ms = 0;
