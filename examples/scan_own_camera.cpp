@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <imufusion/image_io.hpp>
 #include <imufusion/mesh.hpp>
+#include <imufusion/presets.hpp>
 #include <imufusion/reconstructor.hpp>
 #include <imufusion/sequence.hpp>
 #include <imufusion/trajectory.hpp>
@@ -27,12 +28,11 @@ int main(int argc, char** argv) {
   if (!camera) return fail(camera.error());
   if (!camera->intrinsics()) return fail({ErrorCode::kNotFound, "no calibration.txt"});
 
-  // What the app knows about its sensor: the depth camera's intrinsics (pixels), and where the
-  // IMU sits (T_camera_imu maps IMU coordinates into the camera frame; leave it unknown and the
-  // scanner estimates the rotation).
-  ReconstructorConfig config;
-  config.intrinsics = *camera->intrinsics();
-  config.imu.enabled = camera->has_imu();
+  // What the app knows about its sensor: its class (the preset), the depth camera's intrinsics
+  // (pixels), whether it has an IMU and where it sits (T_camera_imu maps IMU coordinates into
+  // the camera frame; leave it unknown and the scanner estimates the rotation).
+  ReconstructorConfig config =
+      preset_config(SensorPreset::kKinect, *camera->intrinsics(), camera->has_imu());
   config.inertial.T_camera_imu = camera->T_camera_imu();
   config.inertial.T_camera_imu_known = camera->info().has_imu_to_camera;
   auto scanner = Reconstructor::create(config);

@@ -31,6 +31,7 @@
 #include "frame_step.hpp"
 #include "imufusion/eval.hpp"
 #include "imufusion/image_io.hpp"
+#include "imufusion/presets.hpp"
 #include "imufusion/reconstructor.hpp"
 #include "imufusion/scan_report.hpp"
 #include "imufusion/sequence.hpp"
@@ -81,12 +82,6 @@ struct Options {
   fs::path record;
 };
 
-// ICP iterations per frame when the gyro seeds the rotation, and without it (the paper's
-// comparison: one to two iterations with the IMU against up to 30 without; bench/README.md
-// "Inertial navigation end to end" has the measurements behind these defaults).
-constexpr int kIcpIterationsWithImu = 2;
-constexpr int kIcpIterationsWithoutImu = 30;
-
 int usage(std::ostream& out, int code) {
   out << "usage: imufusion-scan [SEQUENCE] [--out DIR] [--no-imu] [--icp-iterations N]\n"
          "                      [--voxel-size M] [--frames N] [--poses FILE] [--device "
@@ -106,7 +101,7 @@ int usage(std::ostream& out, int code) {
          "preview.png, overview.png and summary.json.\n"
          "  --no-imu                 track without the gyroscope (the ICP-only baseline)\n"
          "  --icp-iterations N       Gauss-Newton steps per frame at most (default "
-      << kIcpIterationsWithImu << " with IMU, " << kIcpIterationsWithoutImu
+      << kPresetIcpIterationsWithImu << " with IMU, " << kPresetIcpIterationsWithoutImu
       << " without)\n"
          "  --poses FILE             fuse with known camera-to-world poses (TUM format), no "
          "tracking\n"
@@ -287,18 +282,16 @@ std::string sequence_imu_unusable(const Options& opt, const SequenceReader* read
 // `sequence_imu`: whether its imu.txt can aid the scan.
 ReconstructorConfig make_config(const Options& opt, const SequenceReader* reader,
                                 const FrameSource* source, const Intrinsics& k, bool sequence_imu) {
-  ReconstructorConfig config;
-  config.intrinsics = k;
+  const bool with_imu =
+      !opt.no_imu && (opt.imu_udp || (reader != nullptr && reader->has_imu() && sequence_imu));
+  ReconstructorConfig config = preset_config(SensorPreset::kKinect, k, with_imu);
   config.volume.voxel_size = opt.voxel_size;
   config.volume.block_capacity = opt.block_capacity;
   config.tracking_level = opt.tracking_level;
   // The hash table keeps at least 4 slots per block, as the defaults do.
   while (config.volume.hash_slots < 4ull * opt.block_capacity) config.volume.hash_slots *= 2;
   config.device.selector = opt.device;
-  config.imu.enabled =
-      !opt.no_imu && (opt.imu_udp || (reader != nullptr && reader->has_imu() && sequence_imu));
-  config.icp.max_total_iterations = opt.icp_iterations.value_or(
-      config.imu.enabled ? kIcpIterationsWithImu : kIcpIterationsWithoutImu);
+  if (opt.icp_iterations) config.icp.max_total_iterations = *opt.icp_iterations;
   config.tracking.recovery_frames = opt.recovery_frames;
   std::optional<Eigen::Isometry3d> T_camera_imu =
       source != nullptr ? source->T_camera_imu() : std::nullopt;

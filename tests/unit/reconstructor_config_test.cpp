@@ -5,6 +5,7 @@
 #include <limits>
 #include <string>
 
+#include "imufusion/presets.hpp"
 #include "imufusion/reconstructor.hpp"
 #include "imufusion/synth.hpp"
 
@@ -81,6 +82,24 @@ TEST(ReconstructorConfig, RejectsSettingsOutOfRange) {
   EXPECT_TRUE(c.validate().ok());
   c.initial_pose.translation().x() = std::numeric_limits<double>::infinity();
   EXPECT_FALSE(c.validate().ok());
+}
+
+// A preset is a valid configuration for the camera it is given, with the ICP budget of its IMU
+// use: the gyro's seed needs 2 Gauss-Newton steps per frame, ICP alone up to 30.
+TEST(SensorPresets, AreValidAndFollowTheImu) {
+  const Intrinsics k = synth::default_intrinsics(640, 480);
+  for (const bool imu : {true, false}) {
+    const ReconstructorConfig c = preset_config(SensorPreset::kKinect, k, imu);
+    EXPECT_TRUE(c.validate().ok()) << c.validate().error().describe();
+    EXPECT_EQ(c.intrinsics.width, 640);
+    EXPECT_EQ(c.intrinsics.fx, k.fx);
+    EXPECT_EQ(c.imu.enabled, imu);
+    EXPECT_EQ(c.icp.max_total_iterations, imu ? 2 : 30);
+    EXPECT_FALSE(c.inertial.T_camera_imu_known);  // the mounting is the app's to give
+  }
+  EXPECT_EQ(parse_sensor_preset(to_string(SensorPreset::kKinect)), SensorPreset::kKinect);
+  EXPECT_FALSE(parse_sensor_preset("kinect2").has_value());
+  EXPECT_FALSE(preset_config(SensorPreset::kKinect, Intrinsics{}, true).validate().ok());
 }
 
 }  // namespace

@@ -1,0 +1,40 @@
+#pragma once
+// The scanner's settings per class of depth sensor: one set of defaults that the library, the
+// tools (imufusion-scan) and the Python bindings share. The measurements behind each preset:
+// bench/README.md, "Sensor presets".
+
+#include <optional>
+#include <string_view>
+
+#include "imufusion/reconstructor.hpp"
+#include "imufusion/types.hpp"
+
+namespace imufusion {
+
+/// Classes of depth sensor with measured defaults.
+enum class SensorPreset {
+  /// 640x480-class structured light or ToF at 30 Hz, 0.3-5 m (Kinect v1, Asus Xtion, the TUM
+  /// RGB-D recordings): the sensor modelled by the project's generator and the independent
+  /// renderer, and recorded in TUM fr1_xyz.
+  kKinect,
+};
+
+/// "kinect" for kKinect.
+const char* to_string(SensorPreset sensor);
+/// The preset named `name` (as to_string writes it), or nothing.
+std::optional<SensorPreset> parse_sensor_preset(std::string_view name);
+
+/// The scanner's configuration for `sensor` with the depth camera's `intrinsics` (frames must
+/// have their size). With an IMU (`with_imu`) ICP starts from the gyro's rotation and takes at
+/// most 2 Gauss-Newton steps per frame; without, ICP alone takes up to 30. The camera-IMU
+/// mounting is left unknown (the scanner estimates its rotation): set inertial.T_camera_imu and
+/// inertial.T_camera_imu_known when it is known.
+ReconstructorConfig preset_config(SensorPreset sensor, const Intrinsics& intrinsics,
+                                  bool with_imu);
+
+/// Gauss-Newton steps per frame at most in the presets, with and without an IMU (the paper's
+/// comparison: one to two with the gyro's seed against up to 30 without).
+inline constexpr int kPresetIcpIterationsWithImu = 2;
+inline constexpr int kPresetIcpIterationsWithoutImu = 30;
+
+}  // namespace imufusion
