@@ -29,8 +29,7 @@ std::optional<SensorPreset> parse_sensor_preset(std::string_view name);
 /// most 2 Gauss-Newton steps per frame; without, ICP alone takes up to 30. The camera-IMU
 /// mounting is left unknown (the scanner estimates its rotation): set inertial.T_camera_imu and
 /// inertial.T_camera_imu_known when it is known.
-ReconstructorConfig preset_config(SensorPreset sensor, const Intrinsics& intrinsics,
-                                  bool with_imu);
+ReconstructorConfig preset_config(SensorPreset sensor, const Intrinsics& intrinsics, bool with_imu);
 
 /// Gauss-Newton steps per frame at most in the presets, with and without an IMU (the paper's
 /// comparison: one to two with the gyro's seed against up to 30 without).
