@@ -23,6 +23,7 @@
 #include "imufusion/fusion.hpp"
 #include "imufusion/image_io.hpp"
 #include "imufusion/mesh.hpp"
+#include "imufusion/mesh_eval.hpp"
 #include "imufusion/sequence.hpp"
 #include "imufusion/synth.hpp"
 #include "imufusion/trajectory.hpp"

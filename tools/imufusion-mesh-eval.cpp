@@ -14,6 +14,7 @@
 
 #include "cli_numbers.hpp"
 #include "imufusion/mesh.hpp"
+#include "imufusion/mesh_eval.hpp"
 #include "imufusion/sequence.hpp"
 #include "imufusion/synth.hpp"
 #include "imufusion/trajectory.hpp"
@@ -71,6 +72,32 @@ int usage_error(const std::string& message) {
   return kExitUsage;
 }
 
+// --intrinsics FX FY CX CY (pixels): the exit status on a usage error, nothing when read.
+std::optional<int> parse_intrinsics(const std::array<std::optional<std::string>, 4>& texts,
+                                    Arguments& args) {
+  std::array<double, 4> values{};
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const auto number = texts[i] ? parse_number(*texts[i]) : std::nullopt;
+    if (!number) return usage_error("--intrinsics needs four numbers: FX FY CX CY");
+    values[i] = *number;
+  }
+  if (values[0] <= 0 || values[1] <= 0) return usage_error("--intrinsics: FX and FY must be > 0");
+  args.intrinsics = values;
+  return std::nullopt;
+}
+
+// --size WxH: the exit status on a usage error, nothing when read.
+std::optional<int> parse_size(const std::optional<std::string>& text, Arguments& args) {
+  const auto x = text ? text->find('x') : std::string::npos;
+  const auto w = x != std::string::npos ? parse_integer(text->substr(0, x)) : std::nullopt;
+  const auto h = x != std::string::npos ? parse_integer(text->substr(x + 1)) : std::nullopt;
+  if (!w || !h || *w <= 0 || *h <= 0 || *w > 100000 || *h > 100000) {
+    return usage_error("--size needs WxH with positive whole numbers, e.g. 640x480");
+  }
+  args.size = {static_cast<int>(*w), static_cast<int>(*h)};
+  return std::nullopt;
+}
+
 // Returns the exit status on a usage error or --help, nothing when the arguments are complete.
 std::optional<int> parse_arguments(int argc, char** argv, Arguments& args) {
   std::vector<std::string> positional;
@@ -105,36 +132,16 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& args) {
       if (!text) return usage_error("--groundtruth needs a file");
       args.groundtruth = *text;
     } else if (arg == "--intrinsics") {
-      std::array<double, 4> values{};
-      for (double& value : values) {
-        const auto text = next_value();
-        const auto number = text ? parse_number(*text) : std::nullopt;
-        if (!number) return usage_error("--intrinsics needs four numbers: FX FY CX CY");
-        value = *number;
-      }
-      if (values[0] <= 0 || values[1] <= 0)
-        return usage_error("--intrinsics: FX and FY must be > 0");
-      args.intrinsics = values;
+      std::array<std::optional<std::string>, 4> texts;
+      for (auto& text : texts) text = next_value();
+      if (const auto status = parse_intrinsics(texts, args)) return status;
     } else if (arg == "--size") {
-      const auto text = next_value();
-      const auto x = text ? text->find('x') : std::string::npos;
-      const auto w = x != std::string::npos ? parse_integer(text->substr(0, x)) : std::nullopt;
-      const auto h = x != std::string::npos ? parse_integer(text->substr(x + 1)) : std::nullopt;
-      if (!w || !h || *w <= 0 || *h <= 0 || *w > 100000 || *h > 100000) {
-        return usage_error("--size needs WxH with positive whole numbers, e.g. 640x480");
-      }
-      args.size = {static_cast<int>(*w), static_cast<int>(*h)};
-    } else if (arg == "--threshold") {
+      if (const auto status = parse_size(next_value(), args)) return status;
+    } else if (arg == "--threshold" || arg == "--spacing") {
       const auto text = next_value();
       const auto value = text ? parse_number(*text) : std::nullopt;
-      if (!value || *value <= 0)
-        return usage_error("--threshold needs a positive distance (metres)");
-      args.eval.completeness_threshold = *value;
-    } else if (arg == "--spacing") {
-      const auto text = next_value();
-      const auto value = text ? parse_number(*text) : std::nullopt;
-      if (!value || *value <= 0) return usage_error("--spacing needs a positive distance (metres)");
-      args.eval.sample_spacing = *value;
+      if (!value || *value <= 0) return usage_error(arg + " needs a positive distance (metres)");
+      (arg == "--threshold" ? args.eval.completeness_threshold : args.eval.sample_spacing) = *value;
     } else if (arg == "--frame-step" || arg == "--pixel-step") {
       const auto text = next_value();
       const auto value = text ? parse_integer(*text) : std::nullopt;
@@ -161,10 +168,96 @@ std::optional<int> parse_arguments(int argc, char** argv, Arguments& args) {
   return std::nullopt;
 }
 
+// Scene, seed, poses and camera as recorded in --sequence DIR, where the options left them unset:
+// the exit status on an input error, nothing when read.
+std::optional<int> read_sequence(Arguments& args, imufusion::Intrinsics& intrinsics,
+                                 imufusion::Trajectory& poses) {
+  // Scene, seed, poses and camera as recorded; explicit options override them below.
+  imufusion::SequenceOptions open_options;
+  open_options.load_color = false;
+  if (args.intrinsics) {
+    open_options.intrinsics = imufusion::Intrinsics{(*args.intrinsics)[0], (*args.intrinsics)[1],
+                                                    (*args.intrinsics)[2], (*args.intrinsics)[3]};
+  }
+  auto reader = imufusion::SequenceReader::open(args.sequence, open_options);
+  if (!reader.ok()) {
+    std::cerr << "imufusion-mesh-eval: " << reader.error().describe() << "\n";
+    return kExitInputError;
+  }
+  const imufusion::SequenceInfo& info = reader->info();
+  const auto find = [&](const char* key) -> std::string {
+    const auto it = info.info.find(key);
+    return it == info.info.end() ? std::string() : it->second;
+  };
+  if (!args.scene) {
+    args.scene = imufusion::synth::parse_scene_kind(find("scene"));
+    if (!args.scene) {
+      std::cerr << "imufusion-mesh-eval: " << args.sequence
+                << "/info.txt names no synthetic scene ('scene room|wall|fast'); pass --scene\n";
+      return kExitInputError;
+    }
+  }
+  if (!args.seed) {
+    const auto seed = parse_integer(find("seed"));
+    if (!seed || *seed < 0) {
+      std::cerr << "imufusion-mesh-eval: " << args.sequence
+                << "/info.txt has no 'seed N' line; pass --seed\n";
+      return kExitInputError;
+    }
+    args.seed = static_cast<std::uint64_t>(*seed);
+  }
+  if (args.groundtruth.empty()) {
+    if (!reader->has_ground_truth()) {
+      std::cerr << "imufusion-mesh-eval: " << args.sequence << " has no groundtruth.txt\n";
+      return kExitInputError;
+    }
+    poses = reader->ground_truth();
+  }
+  if (reader->intrinsics()) intrinsics = *reader->intrinsics();
+  return std::nullopt;
+}
+
 std::string format(const char* pattern, double value) {
   char buffer[64];
   std::snprintf(buffer, sizeof(buffer), pattern, value);
   return buffer;
+}
+
+void print_json(const Arguments& args, const imufusion::Mesh& mesh, std::size_t poses,
+                const imufusion::MeshAccuracy& result) {
+  // NaN (a mesh without area) has no JSON form: null.
+  auto number = [](double value) {
+    return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
+  };
+  nlohmann::json out = {
+      {"mesh", args.mesh},
+      {"vertices", mesh.vertices.size()},
+      {"triangles", mesh.triangles.size()},
+      {"scene", imufusion::synth::to_string(*args.scene)},
+      {"poses", poses},
+      {"reference_points", result.reference_points},
+      {"mesh_samples", result.mesh_samples},
+      {"accuracy_mean_m", number(result.accuracy_mean)},
+      {"accuracy_median_m", number(result.accuracy_median)},
+      {"accuracy_p90_m", number(result.accuracy_p90)},
+      {"completeness", result.completeness},
+      {"completeness_threshold_m", result.completeness_threshold},
+  };
+  std::cout << imufusion::tools::json_text(out) << "\n";
+}
+
+void print_text(const Arguments& args, const imufusion::Mesh& mesh, std::size_t poses,
+                const imufusion::MeshAccuracy& result) {
+  std::cout << "mesh          " << args.mesh << ": " << mesh.vertices.size() << " vertices, "
+            << mesh.triangles.size() << " triangles\n";
+  std::cout << "reference     " << result.reference_points << " true-surface points seen from "
+            << poses << " poses (scene " << imufusion::synth::to_string(*args.scene) << ")\n";
+  std::cout << "accuracy      mean " << format("%.4f", result.accuracy_mean) << "  median "
+            << format("%.4f", result.accuracy_median) << "  p90 "
+            << format("%.4f", result.accuracy_p90) << " m (" << result.mesh_samples
+            << " mesh samples)\n";
+  std::cout << "completeness  " << format("%.4f", result.completeness) << " within "
+            << format("%g", result.completeness_threshold) << " m\n";
 }
 
 }  // namespace
@@ -181,48 +274,7 @@ int main(int argc, char** argv) {
   imufusion::Intrinsics intrinsics = imufusion::synth::default_intrinsics(640, 480);
   imufusion::Trajectory poses;
   if (!args.sequence.empty()) {
-    // Scene, seed, poses and camera as recorded; explicit options override them below.
-    imufusion::SequenceOptions open_options;
-    open_options.load_color = false;
-    if (args.intrinsics) {
-      open_options.intrinsics = imufusion::Intrinsics{(*args.intrinsics)[0], (*args.intrinsics)[1],
-                                                      (*args.intrinsics)[2], (*args.intrinsics)[3]};
-    }
-    auto reader = imufusion::SequenceReader::open(args.sequence, open_options);
-    if (!reader.ok()) {
-      std::cerr << "imufusion-mesh-eval: " << reader.error().describe() << "\n";
-      return kExitInputError;
-    }
-    const imufusion::SequenceInfo& info = reader->info();
-    const auto find = [&](const char* key) -> std::string {
-      const auto it = info.info.find(key);
-      return it == info.info.end() ? std::string() : it->second;
-    };
-    if (!args.scene) {
-      args.scene = imufusion::synth::parse_scene_kind(find("scene"));
-      if (!args.scene) {
-        std::cerr << "imufusion-mesh-eval: " << args.sequence
-                  << "/info.txt names no synthetic scene ('scene room|wall|fast'); pass --scene\n";
-        return kExitInputError;
-      }
-    }
-    if (!args.seed) {
-      const auto seed = parse_integer(find("seed"));
-      if (!seed || *seed < 0) {
-        std::cerr << "imufusion-mesh-eval: " << args.sequence
-                  << "/info.txt has no 'seed N' line; pass --seed\n";
-        return kExitInputError;
-      }
-      args.seed = static_cast<std::uint64_t>(*seed);
-    }
-    if (args.groundtruth.empty()) {
-      if (!reader->has_ground_truth()) {
-        std::cerr << "imufusion-mesh-eval: " << args.sequence << " has no groundtruth.txt\n";
-        return kExitInputError;
-      }
-      poses = reader->ground_truth();
-    }
-    if (reader->intrinsics()) intrinsics = *reader->intrinsics();
+    if (const auto status = read_sequence(args, intrinsics, poses)) return *status;
   }
   if (!args.groundtruth.empty()) {
     auto read = imufusion::read_trajectory(args.groundtruth);
@@ -261,37 +313,9 @@ int main(int argc, char** argv) {
   }
 
   if (args.json) {
-    // NaN (a mesh without area) has no JSON form: null.
-    auto number = [](double value) {
-      return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
-    };
-    nlohmann::json out = {
-        {"mesh", args.mesh},
-        {"vertices", mesh->vertices.size()},
-        {"triangles", mesh->triangles.size()},
-        {"scene", imufusion::synth::to_string(*args.scene)},
-        {"poses", poses.size()},
-        {"reference_points", result->reference_points},
-        {"mesh_samples", result->mesh_samples},
-        {"accuracy_mean_m", number(result->accuracy_mean)},
-        {"accuracy_median_m", number(result->accuracy_median)},
-        {"accuracy_p90_m", number(result->accuracy_p90)},
-        {"completeness", result->completeness},
-        {"completeness_threshold_m", result->completeness_threshold},
-    };
-    std::cout << imufusion::tools::json_text(out) << "\n";
-    return 0;
+    print_json(args, *mesh, poses.size(), *result);
+  } else {
+    print_text(args, *mesh, poses.size(), *result);
   }
-  std::cout << "mesh          " << args.mesh << ": " << mesh->vertices.size() << " vertices, "
-            << mesh->triangles.size() << " triangles\n";
-  std::cout << "reference     " << result->reference_points << " true-surface points seen from "
-            << poses.size() << " poses (scene " << imufusion::synth::to_string(*args.scene)
-            << ")\n";
-  std::cout << "accuracy      mean " << format("%.4f", result->accuracy_mean) << "  median "
-            << format("%.4f", result->accuracy_median) << "  p90 "
-            << format("%.4f", result->accuracy_p90) << " m (" << result->mesh_samples
-            << " mesh samples)\n";
-  std::cout << "completeness  " << format("%.4f", result->completeness) << " within "
-            << format("%g", result->completeness_threshold) << " m\n";
   return 0;
 }

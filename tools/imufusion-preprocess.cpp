@@ -103,107 +103,82 @@ double median(std::vector<double> v) {
   return v.empty() ? 0.0 : v[v.size() / 2];
 }
 
-}  // namespace
+int fail(const std::string& message) {
+  std::cerr << "error: " << message << "\n";
+  return 1;
+}
 
-int main(int argc, char** argv) {
-  Options opt;
-  if (const int rc = parse(argc, argv, opt); rc >= 0) return rc;
+int print_devices() {
+  auto devices = list_devices();
+  if (!devices) return fail(devices.error().describe());
+  for (const DeviceInfo& d : *devices)
+    std::cout << "[" << d.index << "] " << d.name << " (" << to_string(d.type) << ", " << d.driver
+              << ", " << d.device_local_bytes / (1024 * 1024) << " MiB)\n";
+  return 0;
+}
 
-  if (opt.list_devices) {
-    auto devices = list_devices();
-    if (!devices) {
-      std::cerr << "error: " << devices.error().describe() << "\n";
-      return 1;
-    }
-    for (const DeviceInfo& d : *devices)
-      std::cout << "[" << d.index << "] " << d.name << " (" << to_string(d.type) << ", " << d.driver
-                << ", " << d.device_local_bytes / (1024 * 1024) << " MiB)\n";
-    return 0;
-  }
-
-  fs::path path = opt.sequence;
+// The sequence to preprocess (the demo when none is given), with intrinsics and frames.
+Result<SequenceReader> open_sequence(const Options& opt, fs::path& path) {
+  path = opt.sequence;
   if (opt.sequence.empty()) {
     auto demo = tools::ensure_demo_sequence(opt.demo_dir, opt.demo_frames);
-    if (!demo) {
-      std::cerr << "error: " << demo.error().describe() << "\n";
-      return 1;
-    }
+    if (!demo) return demo.error();
     path = *demo;
   }
   SequenceOptions seq_options;
   seq_options.load_color = false;
   auto reader = SequenceReader::open(path, seq_options);
-  if (!reader) {
-    std::cerr << "error: " << reader.error().describe() << "\n";
-    return 1;
-  }
+  if (!reader) return reader.error();
   if (!reader->intrinsics()) {
-    std::cerr << "error: " << (path / "calibration.txt").string()
-              << " is missing: the sequence has no intrinsics\n";
-    return 1;
+    return Error{ErrorCode::kNotFound, (path / "calibration.txt").string() +
+                                           " is missing: the sequence has no intrinsics"};
   }
-  const std::size_t total =
-      opt.max_frames > 0
-          ? std::min<std::size_t>(reader->frame_count(), static_cast<std::size_t>(opt.max_frames))
-          : reader->frame_count();
-  if (total == 0) {
-    std::cerr << "error: " << (path / "depth.txt").string() << " lists no frames\n";
-    return 1;
-  }
+  if (reader->frame_count() == 0)
+    return Error{ErrorCode::kInvalidArgument, (path / "depth.txt").string() + " lists no frames"};
+  return reader;
+}
 
-  auto first = reader->frame(0);
-  if (!first) {
-    std::cerr << "error: " << first.error().describe() << "\n";
-    return 1;
-  }
-  Intrinsics k = *reader->intrinsics();
-  k.width = first->depth.width;
-  k.height = first->depth.height;
-  DeviceOptions device;
-  device.selector = opt.device;
-  auto pre = DepthPreprocessor::create(PreprocessConfig{}, k, device);
-  if (!pre) {
-    std::cerr << "error: " << pre.error().describe() << "\n";
-    return 1;
-  }
-  std::cout << "sequence " << path.string() << ": " << total << " frames " << k.width << "x"
-            << k.height << "\ndevice   " << pre->device().name << " ("
-            << to_string(pre->device().type) << ")\n";
-
+// Per-kernel GPU times and wall times of the frames preprocessed.
+struct Timings {
   std::map<std::string, std::vector<double>> gpu_ms;  // kernel -> per-frame times
-  std::vector<std::string> order;
+  std::vector<std::string> order;                     // kernels in dispatch order
   std::vector<double> frame_ms;
   double valid_fraction_sum = 0;
+};
+
+Status run_frames(const Options& opt, SequenceReader& reader, DepthPreprocessor& pre,
+                  std::size_t total, Timings& t) {
   const bool progress = !opt.quiet && isatty(STDERR_FILENO);
   for (std::size_t i = 0; i < total; ++i) {
-    auto frame = reader->next();
-    if (!frame) {
-      std::cerr << "\nerror: " << frame.error().describe() << "\n";
-      return 1;
-    }
+    auto frame = reader.next();
+    if (!frame) return frame.error();
     const auto t0 = std::chrono::steady_clock::now();
-    auto out = pre->process(frame->depth);
+    auto out = pre.process(frame->depth);
     const auto t1 = std::chrono::steady_clock::now();
     if (!out) {
-      std::cerr << "\nerror: frame " << i << ": " << out.error().describe() << "\n";
-      return 1;
+      Error e = out.error();
+      e.message = "frame " + std::to_string(i) + ": " + e.message;
+      return e;
     }
-    frame_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
-    for (const KernelTiming& t : out->timings) {
-      if (!gpu_ms.count(t.kernel)) order.push_back(t.kernel);
-      gpu_ms[t.kernel].push_back(t.gpu_ms);
+    t.frame_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+    for (const KernelTiming& k : out->timings) {
+      if (!t.gpu_ms.count(k.kernel)) t.order.push_back(k.kernel);
+      t.gpu_ms[k.kernel].push_back(k.gpu_ms);
     }
     std::size_t valid = 0;
     for (const auto& n : out->normals[0].data) valid += n.w() > 0 ? 1 : 0;
-    valid_fraction_sum += double(valid) / double(out->normals[0].data.size());
+    t.valid_fraction_sum += double(valid) / double(out->normals[0].data.size());
     if (progress) std::cerr << "\rframe " << i + 1 << "/" << total << std::flush;
   }
   if (progress) std::cerr << "\n";
+  return {};
+}
 
+void print_report(const Timings& t, std::size_t total) {
   std::printf("\n%-18s %10s %10s %10s\n", "kernel", "median ms", "mean ms", "max ms");
   double total_median = 0;
-  for (const std::string& name : order) {
-    const auto& v = gpu_ms[name];
+  for (const std::string& name : t.order) {
+    const auto& v = t.gpu_ms.at(name);
     double sum = 0, max = 0;
     for (double x : v) {
       sum += x;
@@ -219,8 +194,43 @@ int main(int argc, char** argv) {
   }
   std::printf("%-18s %10.3f\n", "sum of kernels", total_median);
   std::printf("\nwall time per frame (upload + kernels + download): median %.2f ms\n",
-              median(frame_ms));
+              median(t.frame_ms));
   std::printf("pixels with a valid normal at level 0: %.1f%% on average\n",
-              100.0 * valid_fraction_sum / double(total));
+              100.0 * t.valid_fraction_sum / double(total));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  if (const int rc = parse(argc, argv, opt); rc >= 0) return rc;
+  if (opt.list_devices) return print_devices();
+
+  fs::path path;
+  auto reader = open_sequence(opt, path);
+  if (!reader) return fail(reader.error().describe());
+  const std::size_t total =
+      opt.max_frames > 0
+          ? std::min<std::size_t>(reader->frame_count(), static_cast<std::size_t>(opt.max_frames))
+          : reader->frame_count();
+  auto first = reader->frame(0);
+  if (!first) return fail(first.error().describe());
+  Intrinsics k = *reader->intrinsics();
+  k.width = first->depth.width;
+  k.height = first->depth.height;
+  DeviceOptions device;
+  device.selector = opt.device;
+  auto pre = DepthPreprocessor::create(PreprocessConfig{}, k, device);
+  if (!pre) return fail(pre.error().describe());
+  std::cout << "sequence " << path.string() << ": " << total << " frames " << k.width << "x"
+            << k.height << "\ndevice   " << pre->device().name << " ("
+            << to_string(pre->device().type) << ")\n";
+
+  Timings timings;
+  if (auto s = run_frames(opt, *reader, *pre, total, timings); !s) {
+    std::cerr << "\n";
+    return fail(s.error().describe());
+  }
+  print_report(timings, total);
   return 0;
 }

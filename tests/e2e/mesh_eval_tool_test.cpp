@@ -14,6 +14,7 @@
 
 #include "../support/synth_config.hpp"
 #include "imufusion/mesh.hpp"
+#include "imufusion/mesh_eval.hpp"
 #include "imufusion/synth.hpp"
 #include "imufusion/trajectory.hpp"
 

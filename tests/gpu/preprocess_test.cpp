@@ -1,5 +1,5 @@
-// GPU preprocessing kernels against their CPU references (src/reference), on odd image sizes so
-// that partial workgroups run. Each kernel is checked on the same input the GPU kernel saw:
+// GPU preprocessing kernels against their CPU references (devkit/src/reference), on odd image sizes
+// so that partial workgroups run. Each kernel is checked on the same input the GPU kernel saw:
 //   depth_to_metres: identical validity, |gpu - ref| <= 1e-6 m (float multiply vs double divide);
 //   bilateral, pyramid_down: identical validity, |gpu - ref| <= 1e-5 m (float vs double exp/sums);
 //   vertex_map: identical validity, |gpu - ref| <= 1e-5 m per coordinate;

@@ -1,6 +1,6 @@
 // The GPU sparse TSDF volume (volume_allocate / volume_integrate / volume_raycast) against its
-// CPU reference (src/reference/volume_reference), on the same float depth maps, and the fused
-// model against exact analytic depth. Tolerances:
+// CPU reference (devkit/src/reference/volume_reference), on the same float depth maps, and the
+// fused model against exact analytic depth. Tolerances:
 //   allocation: the block sets may differ by <= 0.5% of the blocks. The GPU samples each ray
 //     segment in float, the reference in double; a sample within ~1e-7 m of a block face can
 //     land in the neighbouring block, and a block touched only by such a sample differs.

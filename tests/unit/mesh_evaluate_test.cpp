@@ -8,6 +8,7 @@
 #include <numbers>
 
 #include "imufusion/mesh.hpp"
+#include "imufusion/mesh_eval.hpp"
 #include "imufusion/synth.hpp"
 #include "mesh_test_fixtures.hpp"
 

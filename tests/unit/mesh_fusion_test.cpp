@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "imufusion/mesh.hpp"
+#include "imufusion/mesh_eval.hpp"
 #include "imufusion/synth.hpp"
 #include "reference/volume_reference.hpp"
 

@@ -4,9 +4,9 @@
 // IMUFUSION_REQUIRE_GPU is set (as in CI).
 #include <cstdint>
 #include <cstdlib>
+#include <imufusion/presets.hpp>
 #include <imufusion/reconstructor.hpp>
 #include <imufusion/sequence.hpp>
-#include <imufusion/synth.hpp>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -22,8 +22,8 @@ int main() {
     if (std::string(e.what()).find("intrinsics size 0x0 is empty") == std::string::npos) return 1;
   }
 
-  ReconstructorConfig config;
-  config.intrinsics = synth::default_intrinsics(160, 120);
+  const Intrinsics k{131.25, 131.25, 79.5, 59.5, 160, 120};  // fx fy cx cy (px), width height
+  const ReconstructorConfig config = preset_config(SensorPreset::kKinect, k, /*with_imu=*/false);
   auto scanner = Reconstructor::create(config);
   if (!scanner) {
     std::cout << "consumer linked imufusion; no scanner: " << scanner.error().describe() << "\n";

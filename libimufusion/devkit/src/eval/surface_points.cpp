@@ -4,7 +4,7 @@
 #include <numbers>
 #include <unordered_set>
 
-#include "imufusion/mesh.hpp"
+#include "imufusion/mesh_eval.hpp"
 #include "imufusion/synth.hpp"
 #include "mesh/lattice_key.hpp"
 

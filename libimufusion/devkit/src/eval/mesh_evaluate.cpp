@@ -10,7 +10,7 @@
 #include <thread>
 #include <unordered_map>
 
-#include "imufusion/mesh.hpp"
+#include "imufusion/mesh_eval.hpp"
 #include "imufusion/synth.hpp"
 #include "mesh/lattice_key.hpp"
 #include "mesh/mesh_internal.hpp"
