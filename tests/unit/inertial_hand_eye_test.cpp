@@ -14,6 +14,8 @@ namespace {
 
 using test::kDeg;
 
+double rotation_deg(const Eigen::Matrix3d& R) { return test::rotation_angle(R) / kDeg; }
+
 TEST(InertialHandEye, RecoversTheDefaultMountingOnline) {
   const Eigen::Matrix3d truth = synth::default_T_camera_imu().linear();
   for (const synth::SceneKind kind : {synth::SceneKind::kRoom, synth::SceneKind::kFast}) {
@@ -47,6 +49,34 @@ TEST(InertialHandEye, RecoversTheDefaultMountingOnline) {
       EXPECT_LT(bias_error, 3.0 * st.gyro_bias_sigma.norm()) << synth::to_string(kind);
       EXPECT_LT(bias_error, 0.5 * bias.gyro.norm()) << synth::to_string(kind);
     }
+  }
+}
+
+// A given mounting stays in use, and the hand-eye estimate checks it: the phone's axes given as
+// the camera's (identity, 180 deg off) are reported as disagreeing, the true mounting is not.
+TEST(InertialHandEye, ChecksAGivenMounting) {
+  const Eigen::Matrix3d truth = synth::default_T_camera_imu().linear();
+  for (const synth::SceneKind kind : {synth::SceneKind::kRoom, synth::SceneKind::kFast}) {
+    const std::uint64_t seed = 23;
+    const synth::CameraMotion motion(kind, seed);
+    const synth::ImuBias bias = synth::draw_imu_bias(seed);
+    test::RunOptions o;
+    o.seed = seed;
+    InertialConfig config;
+    config.T_camera_imu_known = true;
+    config.T_camera_imu = Eigen::Isometry3d::Identity();  // wrong
+    InertialStatus st = test::run_true_poses(motion, config, o, bias).status();
+    EXPECT_TRUE(st.R_camera_imu_disagrees) << synth::to_string(kind);
+    EXPECT_NEAR(st.R_camera_imu_disagreement_deg, rotation_deg(truth), 3.0);
+    EXPECT_LT(test::angle_between(st.R_camera_imu_check.toRotationMatrix(), truth), 3.0 * kDeg);
+    EXPECT_TRUE(st.R_camera_imu.toRotationMatrix().isIdentity());  // the given one stays
+    EXPECT_FALSE(st.R_camera_imu_estimated);
+
+    config.T_camera_imu.linear() = truth;
+    st = test::run_true_poses(motion, config, o, bias).status();
+    EXPECT_FALSE(st.R_camera_imu_disagrees) << synth::to_string(kind);
+    EXPECT_GT(st.R_camera_imu_disagreement_deg, 0.0);  // checked
+    EXPECT_LT(st.R_camera_imu_disagreement_deg, config.mounting_check_deg);
   }
 }
 

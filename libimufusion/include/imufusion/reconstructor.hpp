@@ -171,6 +171,9 @@ struct FrameResult {
   FrameTimings timings;
 };
 
+/// Not synchronized: call one Reconstructor from one thread at a time (it may move between
+/// threads). Separate Reconstructors share no state (each has its own Vulkan instance and device)
+/// and may run on separate threads at once.
 class Reconstructor {
  public:
   static Result<Reconstructor> create(const ReconstructorConfig& config);

@@ -2,9 +2,11 @@
 // rotation) and the velocity filter behind one object, with the memory of the last tracked
 // frame that the translation models start from.
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <sstream>
 
 #include "core/inertial_internal.hpp"
@@ -55,6 +57,7 @@ Status InertialConfig::validate() const {
       {"gyro_noise_density", gyro_noise_density, true},
       {"icp_rotation_sigma", icp_rotation_sigma, false},
       {"hand_eye_max_sigma_deg", hand_eye_max_sigma_deg, false},
+      {"mounting_check_deg", mounting_check_deg, false},
       {"tracking_position_sigma", tracking_position_sigma, false},
       {"constant_velocity_process_noise", constant_velocity_process_noise, true},
       {"accelerometer_process_noise", accelerometer_process_noise, true},
@@ -113,6 +116,12 @@ struct InertialNavigator::State {
   Eigen::Vector3d lever_arm;  // camera frame, m (translation of T_camera_imu)
   bool mounting_trusted;
   double hand_eye_sigma;  // rad
+  /// A confident hand-eye estimate of a given mounting (the check), and its angle from it (rad).
+  std::optional<Eigen::Matrix3d> R_camera_imu_check;
+  double check_angle = 0;
+  double check_sigma = 0;  // rad
+  static constexpr int kCheckEveryPairs = 30;
+  int pairs_since_check = kCheckEveryPairs;
 
   bool has_last = false;
   double last_time = 0;
@@ -123,7 +132,19 @@ void InertialNavigator::State::observe_mounting(const Eigen::Matrix3d& R_camera_
                                                 const inertial::ImuIntegration& integration) {
   hand_eye.add(R_camera_a_b, integration);
   if (hand_eye.pairs() < config.hand_eye_min_pairs) return;
+  ++pairs_since_check;
+  if (config.T_camera_imu_known && pairs_since_check < kCheckEveryPairs) return;
+  pairs_since_check = 0;
   const inertial::HandEyeCalibrator::Solution sol = hand_eye.solve(bias.bias());
+  if (config.T_camera_imu_known) {
+    // A given mounting stays in use; a confident estimate only checks it, once per
+    // kCheckEveryPairs reliable pairs (the solve's cost is not needed every frame).
+    if (sol.sigma * 180.0 / std::numbers::pi > config.hand_eye_max_sigma_deg) return;
+    R_camera_imu_check = sol.R_camera_imu;
+    check_angle = Eigen::AngleAxisd(R_camera_imu.transpose() * sol.R_camera_imu).angle();
+    check_sigma = sol.sigma;
+    return;
+  }
   hand_eye_sigma = sol.sigma;
   if (sol.sigma * 180.0 / std::numbers::pi > config.hand_eye_max_sigma_deg) return;
   if (!mounting_trusted && config.estimate_gyro_bias) {
@@ -198,7 +219,7 @@ void InertialNavigator::observe(double ta, double tb, const Eigen::Isometry3d& T
   const inertial::ImuIntegration integration =
       s.samples.integrate(ta, tb, s.bias.bias(), T_world_a.linear() * s.R_camera_imu);
   if (reliable && integration.complete) {
-    if (!s.config.T_camera_imu_known) s.observe_mounting(R_camera_a_b, integration);
+    s.observe_mounting(R_camera_a_b, integration);
     if (s.config.estimate_gyro_bias && s.mounting_trusted) {
       const Eigen::Matrix3d R_imu_icp = s.R_camera_imu.transpose() * R_camera_a_b * s.R_camera_imu;
       s.bias.update(tb, integration, R_imu_icp, dt, s.hand_eye_sigma);
@@ -224,6 +245,13 @@ InertialStatus InertialNavigator::status() const {
   out.R_camera_imu_estimated = !s.config.T_camera_imu_known && s.mounting_trusted;
   out.R_camera_imu_sigma_deg = s.hand_eye_sigma * 180.0 / std::numbers::pi;
   out.hand_eye_pairs = s.hand_eye.pairs();
+  if (s.R_camera_imu_check) {
+    constexpr double kDeg = 180.0 / std::numbers::pi;
+    out.R_camera_imu_check = Eigen::Quaterniond(*s.R_camera_imu_check);
+    out.R_camera_imu_disagreement_deg = s.check_angle * kDeg;
+    out.R_camera_imu_disagrees =
+        s.check_angle * kDeg > std::max(s.config.mounting_check_deg, 3.0 * s.check_sigma * kDeg);
+  }
   out.gravity_world = s.velocity.gravity().gravity();
   out.gravity_sigma = s.velocity.gravity().gravity_sigma();
   out.gravity_ready = s.velocity.gravity_ready();
