@@ -1,35 +1,39 @@
 // imufusion-fuse SEQUENCE [options]
 //
 // Fuses a sequence into the sparse TSDF volume with KNOWN poses (no tracking): ground truth by
-// default, or any TUM trajectory (--poses), e.g. from external tracking. Writes the mesh (.glb
-// and .ply), a shaded preview from the last fused pose, an overview from outside the scene, and
-// summary.json; for synthetic sequences also the mesh's accuracy and completeness.
+// default, or any TUM trajectory (--poses), e.g. from external tracking. Fuses through the
+// Reconstructor (fuse_with_pose), as imufusion-scan --poses does, and writes the same model
+// outputs (model_outputs.hpp) into --out DIR, replaced as one set (io/output_set.hpp): the mesh
+// (.glb and .ply), a shaded preview from the last fused pose, an overview from outside the
+// scene, and summary.json; for synthetic sequences also the mesh's accuracy and completeness.
 
 #include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
-#include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
+#include <iterator>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
-#include "imufusion/fusion.hpp"
-#include "imufusion/image_io.hpp"
 #include "imufusion/mesh.hpp"
 #include "imufusion/mesh_eval.hpp"
+#include "imufusion/presets.hpp"
+#include "imufusion/reconstructor.hpp"
 #include "imufusion/sequence.hpp"
 #include "imufusion/synth.hpp"
 #include "imufusion/trajectory.hpp"
 #include "io/atomic_file.hpp"
+#include "io/output_set.hpp"
 #include "json_text.hpp"
-#include "overview_pose.hpp"
+#include "model_outputs.hpp"
 
 namespace fs = std::filesystem;
 using namespace imufusion;
@@ -54,21 +58,8 @@ int usage(std::ostream& out, int code) {
   return code;
 }
 
-int fail(const std::string& message) {
-  std::cerr << "error: " << message << "\n";
-  return 1;
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
-
-}  // namespace
-
-int main(int argc, char** argv) {
-  Options opt;
+// Parses the command line into `opt`; returns -1 to fuse, else the exit code (0 for --help).
+int parse(int argc, char** argv, Options& opt) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> const char* { return i + 1 < argc ? argv[++i] : nullptr; };
@@ -105,7 +96,142 @@ int main(int argc, char** argv) {
       return usage(std::cerr, 2);
     }
   }
-  if (opt.sequence.empty()) return usage(std::cerr, 2);
+  return opt.sequence.empty() ? usage(std::cerr, 2) : -1;
+}
+
+int fail(const std::string& message) {
+  std::cerr << "error: " << message << "\n";
+  return 1;
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+// The outputs of a fusion, replaced as one set; summary.json, last, marks the set complete.
+std::vector<std::string> fuse_outputs() {
+  std::vector<std::string> names(std::begin(tools::kModelOutputs), std::end(tools::kModelOutputs));
+  names.push_back("summary.json");
+  return names;
+}
+
+ReconstructorConfig fuse_config(const Options& opt, const SequenceReader& reader) {
+  Intrinsics k = *reader.intrinsics();
+  k.width = reader.info().width;
+  k.height = reader.info().height;
+  // The poses are given: nothing to track, no IMU.
+  ReconstructorConfig config = preset_config(SensorPreset::kKinect, k, /*with_imu=*/false);
+  config.volume.voxel_size = opt.voxel_size;
+  config.device.selector = opt.device;
+  return config;
+}
+
+// What the fusion counted over its frames.
+struct FuseRun {
+  std::size_t frames = 0;        // read (--frames at most)
+  std::size_t fused = 0;         // fused at a known pose
+  std::size_t without_pose = 0;  // no pose within 20 ms: skipped
+  std::uint64_t pool_full = 0;   // IntegrationStats::pool_full summed over the frames
+  std::uint64_t table_full = 0;  // IntegrationStats::table_full summed
+  std::vector<double> frame_ms;  // wall ms of each fused frame
+  std::map<std::string, std::vector<double>> kernel_ms;  // GPU ms of each kernel per frame
+};
+
+// Fuses the sequence's frames at their known poses; returns the error message, empty on success.
+std::string fuse_frames(const Options& opt, SequenceReader& reader, const Trajectory& poses,
+                        Reconstructor& rec, FuseRun& run) {
+  run.frames = opt.max_frames > 0 ? std::min<std::size_t>(reader.frame_count(),
+                                                          static_cast<std::size_t>(opt.max_frames))
+                                  : reader.frame_count();
+  const bool progress = !opt.quiet && isatty(STDERR_FILENO);
+  for (std::size_t i = 0; i < run.frames; ++i) {
+    auto frame = reader.next();
+    if (!frame) return frame.error().describe();
+    auto result = tools::fuse_at_known_pose(rec, poses, *frame);
+    if (!result) return "frame " + std::to_string(i) + ": " + result.error().describe();
+    if (!*result) {
+      ++run.without_pose;
+      continue;
+    }
+    const FrameResult& r = **result;
+    run.frame_ms.push_back(r.timings.total_ms);
+    for (const KernelTiming& t : r.timings.kernels) run.kernel_ms[t.kernel].push_back(t.gpu_ms);
+    run.pool_full += r.integration.pool_full;
+    run.table_full += r.integration.table_full;
+    ++run.fused;
+    if (progress) std::cerr << "\rfused " << run.fused << "/" << run.frames << std::flush;
+  }
+  if (progress) std::cerr << "\n";
+  return {};
+}
+
+nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const FuseRun& run) {
+  nlohmann::json summary;
+  summary["sequence"] = opt.sequence.string();
+  summary["poses"] = opt.poses.empty() ? "groundtruth.txt" : opt.poses.string();
+  summary["device"] = rec.device().name;
+  summary["frames"] = run.frames;
+  summary["frames_fused"] = run.fused;
+  summary["frames_without_pose"] = run.without_pose;
+  summary["voxel_size"] = rec.config().volume.voxel_size;
+  summary["truncation"] = rec.config().volume.truncation();
+  summary["blocks_allocated"] = rec.allocated_blocks();
+  summary["volume_bytes"] = rec.memory_bytes();
+  summary["bytes_per_voxel"] = 8;
+  summary["pool_full_events"] = run.pool_full;
+  summary["table_full_events"] = run.table_full;
+  summary["median_frame_ms"] = median(run.frame_ms);
+  for (const auto& [kernel, ms] : run.kernel_ms) summary["median_gpu_ms"][kernel] = median(ms);
+  return summary;
+}
+
+// Synthetic sequences name their scene: measures the mesh against the true surface the fused
+// frames saw, into `summary`.
+void add_mesh_accuracy(const SequenceReader& reader, const Reconstructor& rec, const Mesh& mesh,
+                       nlohmann::json& summary) {
+  const auto& info = reader.info().info;
+  auto scene_name = info.find("scene");
+  auto seed = info.find("seed");
+  if (scene_name == info.end() || seed == info.end()) return;
+  auto kind = synth::parse_scene_kind(scene_name->second);
+  if (!kind) return;
+  const synth::Scene scene =
+      synth::make_scene(*kind, std::strtoull(seed->second.c_str(), nullptr, 10));
+  const auto points = observed_surface_points(scene, rec.trajectory(), rec.config().intrinsics);
+  auto accuracy = evaluate_mesh(mesh, scene, points);
+  if (!accuracy) return;
+  summary["mesh_accuracy_mean"] = accuracy->accuracy_mean;
+  summary["mesh_accuracy_median"] = accuracy->accuracy_median;
+  summary["mesh_completeness"] = accuracy->completeness;
+  summary["mesh_completeness_threshold"] = accuracy->completeness_threshold;
+}
+
+// Writes the mesh, the views and summary.json into the set's staging directory; returns the
+// mesh's triangles (0: nothing written), or the first failure.
+Result<std::size_t> write_outputs(const io::OutputSet& set, const SequenceReader& reader,
+                                  Reconstructor& rec, nlohmann::json& summary) {
+  const auto m0 = std::chrono::steady_clock::now();
+  auto mesh = rec.extract_mesh();
+  if (!mesh) return mesh.error();
+  summary["mesh_ms"] =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - m0).count();
+  if (mesh->triangles.empty()) return std::size_t{0};
+  summary["mesh_vertices"] = mesh->vertices.size();
+  summary["mesh_triangles"] = mesh->triangles.size();
+  IMUFUSION_RETURN_IF_ERROR(tools::write_model_outputs(set, rec, *mesh));
+  add_mesh_accuracy(reader, rec, *mesh, summary);
+  IMUFUSION_RETURN_IF_ERROR(
+      io::write_text_atomically(set.staged("summary.json"), tools::json_text(summary) + "\n"));
+  return mesh->triangles.size();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  if (const int rc = parse(argc, argv, opt); rc >= 0) return rc;
 
   auto reader = SequenceReader::open(opt.sequence);
   if (!reader) return fail(reader.error().describe());
@@ -121,130 +247,27 @@ int main(int argc, char** argv) {
   } else {
     return fail((opt.sequence / "groundtruth.txt").string() + " is missing: pass --poses FILE");
   }
-  std::error_code ec;
-  fs::create_directories(opt.out, ec);
-  if (ec) return fail("cannot create " + opt.out.string() + ": " + ec.message());
+  auto outputs = io::OutputSet::begin(opt.out, fuse_outputs());
+  if (!outputs) return fail(outputs.error().describe());
+  auto rec = Reconstructor::create(fuse_config(opt, *reader));
+  if (!rec) return fail(rec.error().describe());
 
-  auto first = reader->frame(0);
-  if (!first) return fail(first.error().describe());
-  Intrinsics k = *reader->intrinsics();
-  k.width = first->depth.width;
-  k.height = first->depth.height;
-  VolumeConfig volume;
-  volume.voxel_size = opt.voxel_size;
-  DeviceOptions device;
-  device.selector = opt.device;
-  auto fusion = TsdfFusion::create(volume, PreprocessConfig{}, k, device);
-  if (!fusion) return fail(fusion.error().describe());
-
-  const std::size_t total =
-      opt.max_frames > 0
-          ? std::min<std::size_t>(reader->frame_count(), static_cast<std::size_t>(opt.max_frames))
-          : reader->frame_count();
-  std::map<std::string, std::vector<double>> kernel_ms;
-  std::vector<double> frame_ms;
-  std::size_t fused = 0, skipped = 0;
-  std::uint64_t pool_full = 0, table_full = 0;
-  Trajectory used;
-  const bool progress = !opt.quiet && isatty(STDERR_FILENO);
-  for (std::size_t i = 0; i < total; ++i) {
-    auto frame = reader->next();
-    if (!frame) return fail(frame.error().describe());
-    const StampedPose* pose = find_pose(poses, frame->timestamp);
-    if (pose == nullptr) {
-      ++skipped;
-      continue;
-    }
-    std::vector<KernelTiming> timings;
-    const auto t0 = std::chrono::steady_clock::now();
-    auto stats = fusion->integrate(frame->depth, frame->color ? &*frame->color : nullptr,
-                                   pose->T_world_camera, &timings);
-    if (!stats) return fail("frame " + std::to_string(i) + ": " + stats.error().describe());
-    frame_ms.push_back(
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-    for (const KernelTiming& t : timings) kernel_ms[t.kernel].push_back(t.gpu_ms);
-    pool_full += stats->pool_full;
-    table_full += stats->table_full;
-    used.push_back({frame->timestamp, pose->T_world_camera});
-    ++fused;
-    if (progress) std::cerr << "\rfused " << fused << "/" << total << std::flush;
-  }
-  if (progress) std::cerr << "\n";
-  if (fused == 0)
+  FuseRun run;
+  if (const std::string error = fuse_frames(opt, *reader, poses, *rec, run); !error.empty())
+    return fail(error);
+  if (run.fused == 0)
     return fail("no frame has a pose within 20 ms in " +
                 (opt.poses.empty() ? (opt.sequence / "groundtruth.txt") : opt.poses).string());
-
-  auto snapshot = fusion->snapshot();
-  if (!snapshot) return fail(snapshot.error().describe());
-  const auto m0 = std::chrono::steady_clock::now();
-  auto mesh = extract_mesh(*snapshot);
-  if (!mesh) return fail(mesh.error().describe());
-  const double mesh_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - m0).count();
-  if (mesh->triangles.empty()) return fail("the fused volume holds no surface (no triangles)");
-  if (auto s = write_glb(opt.out / "mesh.glb", *mesh); !s) return fail(s.error().describe());
-  if (auto s = write_ply(opt.out / "mesh.ply", *mesh); !s) return fail(s.error().describe());
-
-  std::vector<KernelTiming> raycast_timing;
-  auto preview = fusion->raycast(used.back().T_world_camera, std::nullopt, &raycast_timing);
-  if (!preview) return fail(preview.error().describe());
-  if (auto s = write_color_png(opt.out / "preview.png", preview->shaded); !s)
-    return fail(s.error().describe());
-  auto overview = fusion->raycast(tools::overview_pose(*snapshot, used.front().T_world_camera, k),
-                                  std::nullopt, nullptr, std::pair{0.1f, 100.0f});
-  if (!overview) return fail(overview.error().describe());
-  if (auto s = write_color_png(opt.out / "overview.png", overview->shaded); !s)
-    return fail(s.error().describe());
-
-  nlohmann::json summary;
-  summary["sequence"] = opt.sequence.string();
-  summary["poses"] = opt.poses.empty() ? "groundtruth.txt" : opt.poses.string();
-  summary["device"] = fusion->device().name;
-  summary["frames"] = total;
-  summary["frames_fused"] = fused;
-  summary["frames_without_pose"] = skipped;
-  summary["voxel_size"] = opt.voxel_size;
-  summary["truncation"] = volume.truncation();
-  summary["blocks_allocated"] = fusion->allocated_blocks();
-  summary["volume_bytes"] = fusion->memory_bytes();
-  summary["bytes_per_voxel"] = 8;
-  summary["pool_full_events"] = pool_full;
-  summary["table_full_events"] = table_full;
-  summary["mesh_vertices"] = mesh->vertices.size();
-  summary["mesh_triangles"] = mesh->triangles.size();
-  summary["mesh_ms"] = mesh_ms;
-  summary["median_frame_ms"] = median(frame_ms);
-  for (const auto& [kernel, ms] : kernel_ms) summary["median_gpu_ms"][kernel] = median(ms);
-  if (!raycast_timing.empty())
-    summary["median_gpu_ms"]["volume_raycast"] = raycast_timing.front().gpu_ms;
-
-  // Synthetic sequences name their scene: measure the mesh against the true surface.
-  const auto& info = reader->info().info;
-  auto scene_name = info.find("scene");
-  auto seed = info.find("seed");
-  if (scene_name != info.end() && seed != info.end()) {
-    if (auto kind = synth::parse_scene_kind(scene_name->second)) {
-      const synth::Scene scene =
-          synth::make_scene(*kind, std::strtoull(seed->second.c_str(), nullptr, 10));
-      const auto points = observed_surface_points(scene, used, k);
-      auto accuracy = evaluate_mesh(*mesh, scene, points);
-      if (accuracy) {
-        summary["mesh_accuracy_mean"] = accuracy->accuracy_mean;
-        summary["mesh_accuracy_median"] = accuracy->accuracy_median;
-        summary["mesh_completeness"] = accuracy->completeness;
-        summary["mesh_completeness_threshold"] = accuracy->completeness_threshold;
-      }
-    }
-  }
-  if (auto s =
-          io::write_text_atomically(opt.out / "summary.json", tools::json_text(summary) + "\n");
-      !s)
-    return fail(s.error().describe());
+  nlohmann::json summary = summary_json(opt, *rec, run);
+  auto triangles = write_outputs(*outputs, *reader, *rec, summary);
+  if (!triangles) return fail(triangles.error().describe());
+  if (*triangles == 0) return fail("the fused volume holds no surface (no triangles)");
+  if (auto s = outputs->commit(); !s) return fail(s.error().describe());
   std::printf(
       "fused %zu of %zu frames on %s: %u blocks (%.1f MiB of volume), mesh %zu triangles -> %s\n",
-      fused, total, fusion->device().name.c_str(), fusion->allocated_blocks(),
-      double(fusion->memory_bytes()) / (1024.0 * 1024.0), mesh->triangles.size(),
-      (opt.out / "mesh.glb").string().c_str());
+      run.fused, run.frames, rec->device().name.c_str(), rec->allocated_blocks(),
+      double(rec->memory_bytes()) / (1024.0 * 1024.0), *triangles,
+      outputs->final_path("mesh.glb").string().c_str());
   if (summary.contains("mesh_completeness"))
     std::printf("mesh vs true surface: accuracy %.2f mm mean, completeness %.1f%% within %.0f mm\n",
                 1000 * summary["mesh_accuracy_mean"].get<double>(),

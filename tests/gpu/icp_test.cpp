@@ -14,7 +14,7 @@
 #include "gpu/icp_kernels.hpp"
 #include "gpu/preprocessor.hpp"
 #include "gpu_test_env.hpp"
-#include "imufusion/fusion.hpp"
+#include "imufusion/reconstructor.hpp"
 #include "imufusion/synth.hpp"
 #include "imufusion_layouts.h"
 #include "reference/icp_reference.hpp"
@@ -190,25 +190,28 @@ TEST_P(IcpTrackerTest, RecoversAKnownMotion) {
 INSTANTIATE_TEST_SUITE_P(References, IcpTrackerTest, ::testing::Values(true, false));
 
 // Frame-to-model: the reference maps are a raycast of a volume fused from frames around the
-// reference pose (ground-truth poses), as the scanner tracks against its model.
+// reference pose (ground-truth poses, Reconstructor::fuse_with_pose), as the scanner tracks
+// against its model.
 TEST_F(GpuTest, FrameToModelRecoversAKnownMotion) {
   const Intrinsics k = synth::default_intrinsics(320, 240);
   const synth::Scene scene = synth::make_scene(synth::SceneKind::kRoom, 2);
   const synth::CameraMotion path(synth::SceneKind::kRoom, 5);
-  VolumeConfig volume;
-  volume.block_capacity = 1u << 14;
-  volume.hash_slots = 1u << 15;
-  DeviceOptions device;
-  device.validation = true;
-  auto fusion = TsdfFusion::create(volume, PreprocessConfig{}, k, device);
+  ReconstructorConfig config;
+  config.intrinsics = k;
+  config.volume.block_capacity = 1u << 14;
+  config.volume.hash_slots = 1u << 15;
+  config.imu.enabled = false;
+  config.device.validation = true;
+  auto fusion = Reconstructor::create(config);
   ASSERT_TRUE(fusion.ok()) << fusion.error().describe();
   for (int f = 0; f < 6; ++f) {
     const Eigen::Isometry3d T = path.pose_at(1.8 + 0.08 * f);
-    ASSERT_TRUE(
-        fusion
-            ->integrate(synth::render_depth(scene, T, k, {}, 40 + static_cast<std::uint64_t>(f)),
+    ASSERT_TRUE(fusion
+                    ->fuse_with_pose(
+                        0.08 * f,
+                        synth::render_depth(scene, T, k, {}, 40 + static_cast<std::uint64_t>(f)),
                         nullptr, T)
-            .ok());
+                    .ok());
   }
   const Eigen::Isometry3d T_world_ref = path.pose_at(2.0);
   auto model = fusion->raycast(T_world_ref);
@@ -217,7 +220,7 @@ TEST_F(GpuTest, FrameToModelRecoversAKnownMotion) {
 
   const Eigen::Isometry3d T_ref_cur = motion(1.5, {0.3, 1, -0.2}, {0.02, -0.015, 0.03});
   const DepthImage current = synth::render_depth(scene, T_world_ref * T_ref_cur, k, {}, 99);
-  auto tracker = IcpTracker::create(IcpConfig{}, PreprocessConfig{}, k, device);
+  auto tracker = IcpTracker::create(IcpConfig{}, PreprocessConfig{}, k, config.device);
   ASSERT_TRUE(tracker.ok());
   ASSERT_TRUE(tracker->set_reference_maps(model->vertices, model->normals).ok());
   auto result = tracker->track(current, Eigen::Isometry3d::Identity());

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include "imufusion/reconstructor.hpp"
 #include "volume_test_support.hpp"
 
 namespace imufusion {
@@ -260,7 +261,10 @@ TEST_F(GpuTest, VolumeMemoryIsEightBytesPerVoxel) {
   VolumeConfig config = small_config();
   config.block_capacity = 96;
   config.hash_slots = 256;
-  auto fusion = TsdfFusion::create(config, PreprocessConfig{}, synth::default_intrinsics(97, 61));
+  ReconstructorConfig scanner;
+  scanner.intrinsics = synth::default_intrinsics(97, 61);
+  scanner.volume = config;
+  auto fusion = Reconstructor::create(scanner);
   ASSERT_TRUE(fusion.ok()) << fusion.error().describe();
   // Pool: two 32-bit words per voxel and the hash slot of each block. Table: key, value and
   // visibility stamp per slot. Visible list: one entry per slot.

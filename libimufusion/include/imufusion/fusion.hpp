@@ -1,18 +1,11 @@
 #pragma once
-// Volumetric fusion into the sparse TSDF block volume on the GPU, and model raycasts. Poses are
-// camera-to-world (T_world_camera), metres.
+// What fusion into the sparse TSDF block volume reports per frame, and what a raycast of the
+// model returns (Reconstructor::fuse_with_pose / track_and_fuse, Reconstructor::raycast). Poses
+// are camera-to-world (T_world_camera), metres.
 
 #include <cstdint>
-#include <memory>
-#include <optional>
-#include <utility>
-#include <vector>
 
-#include "imufusion/device.hpp"
-#include "imufusion/preprocess.hpp"
-#include "imufusion/result.hpp"
 #include "imufusion/types.hpp"
-#include "imufusion/volume.hpp"
 
 namespace imufusion {
 
@@ -32,43 +25,6 @@ struct RaycastImages {
   Vec4Image normals;   // camera frame, unit, w = 1 where valid
   ColorImage shaded;   // Lambertian shading with the light at the camera
   ColorImage color;    // the fused surface colour (black where never coloured)
-};
-
-class TsdfFusion {
- public:
-  static Result<TsdfFusion> create(const VolumeConfig& volume, const PreprocessConfig& preprocess,
-                                   const Intrinsics& intrinsics, const DeviceOptions& device = {});
-  ~TsdfFusion();
-  TsdfFusion(TsdfFusion&&) noexcept;
-  TsdfFusion& operator=(TsdfFusion&&) noexcept;
-
-  /// Fuses one depth frame (and its registered colour, same size) seen from T_world_camera.
-  Result<IntegrationStats> integrate(const DepthImage& depth, const ColorImage* color,
-                                     const Eigen::Isometry3d& T_world_camera,
-                                     std::vector<KernelTiming>* timings = nullptr);
-  /// Raycasts the model from T_world_camera with the fusion's intrinsics (or others), between
-  /// depths near and far (metres along the optical axis; default: the preprocessing range).
-  Result<RaycastImages> raycast(const Eigen::Isometry3d& T_world_camera,
-                                std::optional<Intrinsics> intrinsics = std::nullopt,
-                                std::vector<KernelTiming>* timings = nullptr,
-                                std::optional<std::pair<float, float>> depth_range = std::nullopt);
-  /// March steps of each ray (row-major pixels) of the last raycast, for profiling: 0 where no
-  /// allocated block projects into the pixel's range cell.
-  Result<std::vector<std::uint32_t>> last_raycast_steps() const;
-  /// The allocated blocks, downloaded.
-  Result<HostVolume> snapshot() const;
-  Status reset();
-
-  const DeviceInfo& device() const;
-  std::uint32_t allocated_blocks() const;
-  /// Bytes of GPU memory the volume holds (pool + hash table).
-  std::uint64_t memory_bytes() const;
-  std::uint32_t validation_error_count() const;
-
- private:
-  struct Impl;
-  explicit TsdfFusion(std::unique_ptr<Impl> impl);
-  std::unique_ptr<Impl> impl_;
 };
 
 }  // namespace imufusion

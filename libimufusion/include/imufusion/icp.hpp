@@ -268,7 +268,7 @@ class IcpTracker {
   /// Frame-to-frame: the reference is a depth image (preprocessed like the current frame).
   Status set_reference(const DepthImage& depth);
   /// Frame-to-model: the reference is given as full-resolution vertex and normal maps in the
-  /// reference camera's frame, e.g. TsdfFusion::raycast at the predicted pose.
+  /// reference camera's frame, e.g. Reconstructor::raycast at the predicted pose.
   Status set_reference_maps(const Vec4Image& vertices, const Vec4Image& normals);
   /// Aligns `depth` to the reference, starting at T_ref_cur_init. `timings` collects the GPU time
   /// of every association and reduction dispatch.

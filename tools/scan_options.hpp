@@ -1,0 +1,192 @@
+#pragma once
+// imufusion-scan's command line: its options with their defaults, the usage text, and the
+// parser.
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <iostream>
+#include <optional>
+#include <string>
+
+#include "cli_numbers.hpp"
+#include "imufusion/imu_stream.hpp"
+#include "imufusion/presets.hpp"
+#include "imufusion/reconstructor.hpp"
+#include "imufusion/source.hpp"
+
+namespace imufusion::tools {
+
+// imufusion-scan's options, at their defaults.
+struct ScanOptions {
+  std::filesystem::path input;
+  std::filesystem::path out = "scan";
+  std::filesystem::path poses;
+  std::filesystem::path demo_dir = "demo";
+  int demo_frames = 60;
+  bool no_imu = false;
+  bool no_color = false;
+  bool estimate_imu_rotation = false;
+  std::optional<int> icp_iterations;
+  std::optional<TranslationModel> translation;
+  int recovery_frames = TrackingConfig{}.recovery_frames;
+  float voxel_size = 0.01f;
+  std::uint32_t block_capacity = VolumeConfig{}.block_capacity;
+  int tracking_level = ReconstructorConfig{}.tracking_level;
+  long max_frames = -1;  // scanned (kept) frames at most; -1: all
+  std::size_t frame_step = 1;
+  std::string device;
+  bool list_devices = false;
+  bool quiet = false;
+  DepthMode depth_mode;
+  bool realtime = false;
+  std::optional<std::uint16_t> imu_udp;
+  std::string imu_udp_address = ImuUdpOptions{}.address;
+  std::filesystem::path record;
+};
+
+// Writes the usage text to `out`; returns `code`.
+inline int scan_usage(std::ostream& out, int code) {
+  out << "usage: imufusion-scan [SEQUENCE] [--out DIR] [--no-imu] [--icp-iterations N]\n"
+         "                      [--voxel-size M] [--frames N] [--poses FILE] [--device "
+         "NAME|INDEX]\n"
+         "                      [--list-devices] [--translation "
+         "none|constant-velocity|accelerometer]\n"
+         "                      [--estimate-imu-rotation] [--recovery-frames N] [--no-color]\n"
+         "                      [--demo-dir DIR] [--demo-frames N] [--quiet] [--depth-mode "
+         "WxH@FPS]\n"
+         "                      [--realtime] [--imu-udp PORT] [--imu-udp-address ADDR] [--record "
+         "DIR]\n"
+         "                      [--frame-step N] [--block-capacity N] [--tracking-level N]\n"
+         "Scans SEQUENCE, a camera (openni2:// or openni2://URI) or a recording (FILE.oni) "
+         "(default:\n"
+         "the embedded demo room, synthesized into --demo-dir, default ./demo) and writes DIR "
+         "(default ./scan)/trajectory.txt, frames.csv, mesh.glb, mesh.ply,\n"
+         "preview.png, overview.png and summary.json.\n"
+         "  --no-imu                 track without the gyroscope (the ICP-only baseline)\n"
+         "  --icp-iterations N       Gauss-Newton steps per frame at most (default "
+      << kPresetIcpIterationsWithImu << " with IMU, " << kPresetIcpIterationsWithoutImu
+      << " without)\n"
+         "  --poses FILE             fuse with known camera-to-world poses (TUM format), no "
+         "tracking\n"
+         "  --frames N               scan at most N frames (counted after --frame-step)\n"
+         "  --frame-step N           scan every Nth frame (0, N, 2N, ...: N times faster motion);\n"
+         "                           the IMU samples of skipped frames go with the next kept "
+         "frame,\n"
+         "                           the outputs cover the kept frames only (default 1)\n"
+         "  --estimate-imu-rotation  ignore imu_to_camera.txt and estimate the camera-IMU "
+         "rotation\n"
+         "  --depth-mode WxH@FPS     camera depth mode (default 640x480@30)\n"
+         "  --realtime               deliver recorded frames at their recorded pace\n"
+         "  --imu-udp PORT           take the IMU from UDP lines (imu.txt or Sensorstream format) "
+         "on\n"
+         "                           PORT instead of the sequence's imu.txt\n"
+         "  --imu-udp-address ADDR   IPv4 address to listen on (default "
+      << ImuUdpOptions{}.address
+      << ")\n"
+         "  --record DIR             write the session's frames and IMU as a sequence into DIR\n"
+         "  --block-capacity N       TSDF blocks the volume holds (8^3 voxels, 4 KiB each; default "
+      << VolumeConfig{}.block_capacity
+      << ");\n"
+         "                           beyond them new surface is not fused (frames.csv pool_full)\n"
+         "  --tracking-level N       pyramid level of ICP and the model raycast: 0 full size, 1 "
+         "half\n"
+         "                           (default: 1 on a CPU device, 0 on a GPU); fusion takes the "
+         "full frame\n";
+  return code;
+}
+
+// A flag without a value: sets it in `opt` and returns true, or false when `a` is none.
+inline bool parse_scan_flag(const std::string& a, ScanOptions& opt) {
+  bool* flag = a == "--quiet"                   ? &opt.quiet
+               : a == "--no-imu"                ? &opt.no_imu
+               : a == "--no-color"              ? &opt.no_color
+               : a == "--list-devices"          ? &opt.list_devices
+               : a == "--estimate-imu-rotation" ? &opt.estimate_imu_rotation
+               : a == "--realtime"              ? &opt.realtime
+                                                : nullptr;
+  if (flag != nullptr) *flag = true;
+  return flag != nullptr;
+}
+
+// Option `a` with its value `v` into `opt`; returns -1 when taken, else the exit code (2).
+inline int parse_scan_value(const std::string& a, const std::string& v, ScanOptions& opt) {
+  auto bad = [&](const char* what) {
+    return (std::cerr << "error: " << a << " needs " << what << ", got '" << v << "'\n", 2);
+  };
+  const auto integer = parse_integer(v);
+  if (a == "--out")
+    opt.out = v;
+  else if (a == "--poses")
+    opt.poses = v;
+  else if (a == "--device")
+    opt.device = v;
+  else if (a == "--demo-dir")
+    opt.demo_dir = v;
+  else if (a == "--record")
+    opt.record = v;
+  else if (a == "--imu-udp-address")
+    opt.imu_udp_address = v;
+  else if (a == "--depth-mode") {
+    auto mode = parse_depth_mode(v);
+    if (!mode) return (std::cerr << "error: " << mode.error().describe() << "\n", 2);
+    opt.depth_mode = *mode;
+  } else if (a == "--imu-udp") {
+    if (!integer || *integer < 1 || *integer > 65535) return bad("a UDP port 1..65535");
+    opt.imu_udp = static_cast<std::uint16_t>(*integer);
+  } else if (a == "--icp-iterations") {
+    if (!integer || *integer < 1 || *integer > 100) return bad("a count 1..100");
+    opt.icp_iterations = static_cast<int>(*integer);
+  } else if (a == "--frames") {
+    if (!integer || *integer < 1) return bad("a positive count");
+    opt.max_frames = static_cast<long>(*integer);
+  } else if (a == "--frame-step") {
+    if (!integer || *integer < 1) return bad("an integer >= 1");
+    opt.frame_step = static_cast<std::size_t>(*integer);
+  } else if (a == "--demo-frames") {
+    if (!integer || *integer < 2 || *integer > 100000) return bad("a count of at least 2");
+    opt.demo_frames = static_cast<int>(*integer);
+  } else if (a == "--recovery-frames") {
+    if (!integer || *integer < 1 || *integer > 1000) return bad("a positive count");
+    opt.recovery_frames = static_cast<int>(*integer);
+  } else if (a == "--tracking-level") {
+    if (!integer || *integer < 0 || *integer > 2) return bad("a pyramid level 0..2");
+    opt.tracking_level = static_cast<int>(*integer);
+  } else if (a == "--block-capacity") {
+    if (!integer || *integer < 1 || *integer > (1 << 21)) return bad("a count 1..2097152");
+    opt.block_capacity = static_cast<std::uint32_t>(*integer);
+  } else if (a == "--voxel-size") {
+    const auto m = parse_number(v);
+    if (!m || *m < 0.001 || *m > 0.5) return bad("metres in [0.001, 0.5]");
+    opt.voxel_size = static_cast<float>(*m);
+  } else if (a == "--translation") {
+    opt.translation = parse_translation_model(v);
+    if (!opt.translation) return bad("none, constant-velocity or accelerometer");
+  } else {
+    std::cerr << "error: unknown option " << a << "\n";
+    return scan_usage(std::cerr, 2);
+  }
+  return -1;
+}
+
+// Parses the command line into `opt`; returns -1 to scan, else the exit code (0 for --help).
+inline int parse_scan_options(int argc, char** argv, ScanOptions& opt) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "-h" || a == "--help") return scan_usage(std::cout, 0);
+    if (parse_scan_flag(a, opt)) continue;
+    if (a.size() > 1 && a[0] == '-') {
+      if (i + 1 >= argc)
+        return (std::cerr << "error: " << a << " needs a value\n", scan_usage(std::cerr, 2));
+      if (const int rc = parse_scan_value(a, argv[++i], opt); rc >= 0) return rc;
+    } else if (opt.input.empty()) {
+      opt.input = a;
+    } else {
+      std::cerr << "error: more than one input: " << opt.input << " and " << a << "\n";
+      return scan_usage(std::cerr, 2);
+    }
+  }
+  return -1;
+}
+
+}  // namespace imufusion::tools
