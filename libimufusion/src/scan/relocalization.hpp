@@ -27,7 +27,7 @@ class RelocalizationDriver {
     /// The dead-reckoned seed may lie beyond ICP's reach: ICP from it ends the loss only when
     /// the search confirms it.
     bool long_loss = false;
-    std::optional<ModelAligner::Placement> found;  // the frame's relocalized pose, if searched
+    std::optional<ModelAligner::Placement> found;  // the alignment a search accepted
   };
 
   RelocalizationDriver() = default;
