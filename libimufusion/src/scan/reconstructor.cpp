@@ -123,12 +123,6 @@ Result<std::optional<IntegrationStats>> Reconstructor::Impl::fuse_and_update_ref
   return std::optional<IntegrationStats>{volume.finish_integrate()};
 }
 
-Status Reconstructor::Impl::update_reference(const Eigen::Isometry3d& T_world_camera,
-                                             FrameTimings& timings) {
-  auto updated = fuse_and_update_reference(T_world_camera, false, false, timings);
-  return updated ? Status{} : Status{updated.error()};
-}
-
 // The mean motion over the frames tracked in a row before this one, scaled to `interval` (s);
 // the identity with an IMU, with TrackingConfig::constant_velocity_pairs 0, or when the previous
 // two frames were not both tracked.
@@ -157,41 +151,63 @@ void Reconstructor::Impl::note_motion(bool tracked, double timestamp,
     tracked_run.pop_front();
 }
 
-// The frame aligned from the predicted seed (relocalized while lost), the state machine's
-// decision, and the bookkeeping that follows it: the pairing reference, the seed gate, the
-// motion the navigator observes, a restarted recovery and the pending correction of a loss.
-// Sets r's ICP result and pose.
-Result<TrackingDecision> Reconstructor::Impl::track_frame(double timestamp, const DepthImage& depth,
-                                                          FrameResult& r) {
+// The scan starts at its first frame with depth enough to track against; before it, the frame
+// waits at the initial pose, lost, and the machine stays unstarted.
+LossRecovery::Frame Reconstructor::Impl::start_frame(const DepthImage& depth, FrameResult& r) {
+  LossRecovery::Frame f;
+  f.index = r.index;
+  f.timestamp = r.timestamp;
+  if (valid_depth_pixels(depth) >= config.icp.reliability.min_inliers)
+    f.decision = machine.start();
+  else
+    f.decision = {TrackingStatus::kLost, PoseSource::kInitial, false, 0, false};
+  r.T_world_camera = config.initial_pose;
+  return f;
+}
+
+// The frame aligned from the predicted seed (relocalized while lost), a recovery it restarts and
+// the state machine's decision. Sets r's prediction, ICP result and pose; returns the frame as
+// loss recovery sees it.
+Result<LossRecovery::Frame> Reconstructor::Impl::track_frame(double timestamp,
+                                                             const DepthImage& depth,
+                                                             FrameResult& r) {
   const StampedPose& previous = trajectory.back();
   frame_interval = timestamp - previous.timestamp;
   if (navigator)
     r.imu = navigator->predict(previous.timestamp, timestamp);
   else
     r.imu.T_a_b = constant_velocity_motion(frame_interval);
-  const Eigen::Isometry3d T_world_seed = previous.T_world_camera * r.imu.T_a_b;
-  auto icp = align(depth, T_world_seed, r.imu, machine.recovering_or_lost(), r.timings);
+  LossRecovery::Frame f;
+  f.index = r.index;
+  f.timestamp = timestamp;
+  f.T_world_seed = previous.T_world_camera * r.imu.T_a_b;
+  auto icp = align(depth, f.T_world_seed, r.imu, machine.recovering_or_lost(), r.timings);
   if (!icp) return icp.error();
   const Eigen::Matrix3d R_world_reference = T_world_reference.linear();
   Eigen::Isometry3d T_world_icp = T_world_reference * icp->T_ref_cur;
-  // Where the frame would be without a recovery: the partial pose, else dead reckoning.
-  const Eigen::Isometry3d T_world_estimate = icp->partial() ? T_world_icp : T_world_seed;
-  const bool long_loss = this->long_loss(timestamp, r.imu);
-  if (may_relocalize(*icp, r.imu, long_loss)) {
-    auto found = relocalize(depth, T_world_estimate, timestamp, r.timings);
-    if (!found) return found.error();
-    if (*found) {
-      icp = (*found)->icp;
-      T_world_icp = (*found)->T_world_camera;
-      r.relocalized = true;
-    }
-  }
-  if (long_loss && icp->reliable() && !r.relocalized) {
+  f.T_world_estimate = icp->partial() ? T_world_icp : f.T_world_seed;
+  f.was_lost = machine.status() == TrackingStatus::kLost;
+  const RelocalizationDriver::Frame search_frame{
+      .timestamp = timestamp,
+      .lost = f.was_lost,
+      .rotation_from_imu = r.imu.rotation_from_imu,
+      .icp_reliable = icp->reliable(),
+      .T_world_estimate = f.T_world_estimate,
+      .constrained_time = recovery.constrained_time(),
+      .lost_at = trajectory[recovery.constrained_index()].T_world_camera.translation()};
+  auto searched = relocalization.on_frame(search_frame, depth, *this, r.timings);
+  if (!searched) return searched.error();
+  f.long_loss = searched->long_loss;
+  if (searched->found) {
+    icp = searched->found->icp;
+    T_world_icp = searched->found->T_world_camera;
+    r.relocalized = true;
+  } else if (f.long_loss && icp->reliable()) {
     icp->verdict = IcpVerdict::kUnreliable;
     icp->reason = "after a long loss, not confirmed as the only fit by the relocalization search";
   }
-  const bool was_lost = machine.status() == TrackingStatus::kLost;
-  const bool partial_may_fuse = timestamp - last_constrained_time <= config.imu.max_partial_seconds;
+  const bool partial_may_fuse =
+      timestamp - recovery.constrained_time() <= config.imu.max_partial_seconds;
   if (icp->partial() && !partial_may_fuse && !machine.recovering_or_lost()) {
     char limit[32];
     std::snprintf(limit, sizeof limit, "%.3g", config.imu.max_partial_seconds);
@@ -199,80 +215,48 @@ Result<TrackingDecision> Reconstructor::Impl::track_frame(double timestamp, cons
   }
   r.icp_ran = true;
   r.icp = *icp;
-  r.recovery_restarted = disagrees_with_recovery(*icp, r, T_world_seed, T_world_icp);
-  if (r.recovery_restarted) machine.restart_recovery();
-  const TrackingDecision decision =
+  f.restarted = r.recovery_restarted =
+      recovery.disagrees(machine.status(), *icp, r.imu, f.T_world_seed, T_world_icp);
+  if (f.restarted) machine.restart_recovery();
+  f.decision =
       machine.step(icp->reliable(), icp->quality.converged, icp->partial(), partial_may_fuse);
+  const PoseSource source = f.decision.source;
+  r.T_world_camera = source == PoseSource::kIcp || source == PoseSource::kIcpPartial
+                         ? T_world_icp
+                         : f.T_world_seed;
+  f.fixed.noalias() = R_world_reference * icp->fixed_translation * R_world_reference.transpose();
+  note_decision(f.decision, *icp, f.was_lost, previous, r);
+  return f;
+}
+
+// What a tracked frame's decision teaches the scan: the pairing reference and the prediction's
+// calibration, the seed gate, and the motion the navigator observes.
+void Reconstructor::Impl::note_decision(const TrackingDecision& decision, const IcpResult& icp,
+                                        bool was_lost, const StampedPose& previous,
+                                        FrameResult& r) {
   // A frame accepted for its agreement with the IMU paired less than the reference asks for.
   if (decision.status == TrackingStatus::kTracking && decision.source == PoseSource::kIcp &&
-      !icp->quality.agreed_with_seed) {
-    pairing.add(icp->quality.inlier_fraction, icp->quality.pixel_fraction);
+      !icp.quality.agreed_with_seed) {
+    pairing.add(icp.quality.inlier_fraction, icp.quality.pixel_fraction);
     // Only against a whole prediction: the first frames' translation sigma is a bound.
-    if (icp->quality.seed_chi2 > 0 && icp->quality.seed_gated_directions == 0 &&
+    if (icp.quality.seed_chi2 > 0 && icp.quality.seed_gated_directions == 0 &&
         r.imu.translation_predicted)
-      prediction_calibration.add(icp->quality.seed_chi2);
+      prediction_calibration.add(icp.quality.seed_chi2);
   }
   seed_gate_holding =
-      decision.status == TrackingStatus::kTracking && icp->quality.seed_gated_directions > 0;
-  const bool icp_pose =
-      decision.source == PoseSource::kIcp || decision.source == PoseSource::kIcpPartial;
-  r.T_world_camera = icp_pose ? T_world_icp : T_world_seed;
+      decision.status == TrackingStatus::kTracking && icp.quality.seed_gated_directions > 0;
   // A pair measures the motion only when both poses came from ICP against the same model:
   // the first frame placed after a loss (relocalized or not) also undoes dead reckoning's
   // drift, and a restarted recovery's frame undoes a wrong fit.
   if (navigator) {
-    navigator->observe(previous.timestamp, timestamp, previous.T_world_camera, r.T_world_camera,
+    navigator->observe(previous.timestamp, r.timestamp, previous.T_world_camera, r.T_world_camera,
                        decision.source == PoseSource::kIcp && !was_lost && !r.recovery_restarted);
     if (r.recovery_restarted) navigator->forget_velocity();
   }
-  if (r.recovery_restarted) restart_pending(r.index, T_world_seed, r.T_world_camera);
-  if (was_lost && decision.status == TrackingStatus::kRecovering) {
-    // The correction is measured from where dead reckoning put the frame (a partial pose's
-    // rotation kept, as in the stretch): the frames before reach it by dead reckoning alone.
-    Eigen::Isometry3d T_world_dead = T_world_estimate;
-    T_world_dead.translation() = T_world_seed.translation();
-    pending = PendingCorrection{last_constrained_index, r.index,           T_world_dead,
-                                r.T_world_camera,       constrained_prior, partial_fixed,
-                                std::move(lost_depth)};
-    // The velocity dead reckoning carried out of the loss, corrected by the drift it shows.
-    if (navigator && config.recovery.correct_velocity) {
-      if (const auto dv = stretch_end_velocity_error(*pending, timestamp))
-        navigator->correct_velocity(*dv);
-    }
-  }
-  // Taken as exact only while dead reckoning is still within ICP's reach: from a seed further
-  // off, partial ICP may settle on the wrong stretch of the model in the directions it fixes
-  // too, so there its move is a measurement to be checked
-  // (ReconstructorConfig::smoothing.partial_move_sigma).
-  if (decision.source == PoseSource::kIcpPartial &&
-      (!long_loss || config.smoothing.partial_move_sigma > 0))
-    partial_fixed.push_back(
-        {r.index, R_world_reference * icp->fixed_translation * R_world_reference.transpose(),
-         T_world_icp.translation() - T_world_seed.translation(), long_loss});
-  return decision;
 }
 
-// The stretch since the last fully constrained frame: it starts again at this frame, or keeps
-// its depth for a recovery to place backward.
-void Reconstructor::Impl::update_stretch(const TrackingDecision& decision, double timestamp,
-                                         std::size_t index, const DepthImage& depth) {
-  if (decision.source == PoseSource::kIcp || decision.source == PoseSource::kInitial) {
-    last_constrained_time = timestamp;
-    last_constrained_index = index;
-    constrained_prior = drift_prior();
-    partial_fixed.clear();
-    lost_depth.clear();
-  } else if (config.smoothing.retrack_frames > 0) {
-    keep_depth(lost_depth, index, depth);
-  }
-  // A recovering frame rejoins the lost stretch if a later one disagrees with it (restart_pending).
-  if (decision.status == TrackingStatus::kRecovering && pending &&
-      config.smoothing.retrack_frames > 0)
-    keep_depth(pending->depth, index, depth);
-}
-
-// Fuses the frame at its pose, makes the model seen from there the next reference, appends the
-// frame to the trajectory and settles a lost stretch it ends.
+// Fuses the frame at its pose, makes the model seen from there the next reference and appends
+// the frame to the trajectory.
 Status Reconstructor::Impl::fuse_and_record(const TrackingDecision& decision, double timestamp,
                                             bool with_color, FrameResult& r) {
   r.status = decision.status;
@@ -283,21 +267,17 @@ Status Reconstructor::Impl::fuse_and_record(const TrackingDecision& decision, do
   if (*stats) {
     r.integration = **stats;
     r.fused = true;
-    field_current = false;
+    relocalization.model_changed();
   }
   if (decision.source == PoseSource::kInitial && decision.fuse)
     IMUFUSION_RETURN_IF_ERROR(pair_with_own_model(r.timings));
   trajectory.push_back({timestamp, r.T_world_camera});
-  // The stretch ends at a recovery, or at a broken one: its recovering frames keep the poses ICP
-  // placed them at, and the frames lost after them are dead-reckoned from there, so the stretch
-  // before is re-estimated to meet them now.
-  if ((decision.recovered || decision.status == TrackingStatus::kLost) && pending) {
-    IMUFUSION_RETURN_IF_ERROR(settle_lost_stretch(*pending, r));
-    pending.reset();
-  }
   return {};
 }
 
+// The per-frame pipeline: preprocessing, tracking (alignment, relocalization while lost, the state
+// machine's decision), fusion and the model raycast for the next frame, then loss recovery's
+// bookkeeping and the correction of a lost stretch the frame ends.
 Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthImage& depth,
                                                   const ColorImage* color,
                                                   std::span<const ImuSample> imu) {
@@ -309,28 +289,21 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
   r.index = m.trajectory.size();
   r.timestamp = timestamp;
   IMUFUSION_RETURN_IF_ERROR(m.preprocess(depth, color, r.timings));
-
-  TrackingDecision decision;
-  if (!m.machine.started() || !m.has_reference) {
-    // The scan starts at its first frame with depth enough to track against; before it, the
-    // frame waits at the initial pose, lost, and the machine stays unstarted.
-    if (m.valid_depth_pixels(depth) >= m.config.icp.reliability.min_inliers)
-      decision = m.machine.start();
-    else
-      decision = {TrackingStatus::kLost, PoseSource::kInitial, false, 0, false};
-    r.T_world_camera = m.config.initial_pose;
-  } else {
-    auto tracked = m.track_frame(timestamp, depth, r);
-    if (!tracked) return tracked.error();
-    decision = *tracked;
-  }
-  m.update_stretch(decision, timestamp, r.index, depth);
+  auto frame = m.machine.started() && m.has_reference ? m.track_frame(timestamp, depth, r)
+                                                      : m.start_frame(depth, r);
+  if (!frame) return frame.error();
+  const TrackingDecision& decision = frame->decision;
   // The pose is a measurement of the motion: the scan's start, or fully tracked by ICP.
   m.note_motion(
       decision.status == TrackingStatus::kTracking &&
           (decision.source == PoseSource::kIcp || decision.source == PoseSource::kInitial),
       timestamp, r.T_world_camera);
   IMUFUSION_RETURN_IF_ERROR(m.fuse_and_record(decision, timestamp, color != nullptr, r));
+  frame->T_world_camera = r.T_world_camera;
+  auto retracked =
+      m.recovery.on_frame(*frame, depth, m.navigator_or_null(), m.trajectory, m, r.timings);
+  if (!retracked) return retracked.error();
+  r.retracked = *retracked;
   IMUFUSION_RETURN_IF_ERROR(m.finish_preprocess(r.timings));
   r.inertial = m.inertial_status();
   r.timings.total_ms = ms_since(t0);
@@ -354,12 +327,7 @@ Result<FrameResult> Reconstructor::fuse_with_pose(double timestamp, const DepthI
   r.T_world_camera = T_world_camera;
   r.status = TrackingStatus::kTracking;
   r.source = PoseSource::kKnown;
-  m.last_constrained_time = timestamp;
-  m.last_constrained_index = r.index;
-  m.constrained_prior = m.drift_prior();
-  m.pending.reset();
-  m.partial_fixed.clear();
-  m.lost_depth.clear();
+  m.recovery.on_known_pose(r.index, timestamp, m.navigator_or_null());
   if (!m.trajectory.empty() && m.navigator) {
     const StampedPose& previous = m.trajectory.back();
     r.imu = m.navigator->predict(previous.timestamp, timestamp);
@@ -373,7 +341,7 @@ Result<FrameResult> Reconstructor::fuse_with_pose(double timestamp, const DepthI
   IMUFUSION_RETURN_IF_ERROR(m.finish_preprocess(r.timings));
   r.integration = *stats;
   r.fused = true;
-  m.field_current = false;
+  m.relocalization.model_changed();
   m.trajectory.push_back({timestamp, T_world_camera});
   m.note_motion(true, timestamp, T_world_camera);
   r.inertial = m.inertial_status();
@@ -381,16 +349,11 @@ Result<FrameResult> Reconstructor::fuse_with_pose(double timestamp, const DepthI
   return r;
 }
 
+// A correction is pending from a loss's first recovering frame until the recovery completes or
+// breaks: here, the scan ends while recovering.
 Result<std::size_t> Reconstructor::finish() {
-  Impl& m = *impl_;
-  // A pending correction exists from a loss's first recovering frame until the recovery
-  // completes or breaks: here, the scan ends while recovering.
-  if (!m.pending || m.trajectory.empty()) return std::size_t{0};
-  FrameResult last;
-  last.T_world_camera = m.trajectory.back().T_world_camera;
-  IMUFUSION_RETURN_IF_ERROR(m.settle_lost_stretch(*m.pending, last));
-  m.pending.reset();
-  return last.retracked;
+  FrameTimings timings;  // of no frame
+  return impl_->recovery.settle(impl_->trajectory, *impl_, timings);
 }
 
 Result<Mesh> Reconstructor::extract_mesh(const MeshOptions& options) const {
@@ -441,13 +404,8 @@ Status Reconstructor::reset() {
   m.trajectory.clear();
   m.has_reference = false;
   m.seed_gate_holding = false;
-  m.field_current = false;
-  m.pending.reset();
-  m.partial_fixed.clear();
-  m.lost_depth.clear();
-  m.last_constrained_time = 0;
-  m.last_constrained_index = 0;
-  m.lost_frames_since_attempt = 0;
+  m.relocalization.reset();
+  m.recovery.reset();
   m.T_world_reference = Eigen::Isometry3d::Identity();
   m.tracked_run.clear();
   return {};

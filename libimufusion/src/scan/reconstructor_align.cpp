@@ -1,6 +1,6 @@
 // Reconstructor::Impl, the alignment of one frame: ICP's reliability thresholds, first pyramid
 // level, budget and seed weights from the IMU's prediction, and the pairing reference the scan's
-// first frame sets.
+// first frame sets; and the ModelAligner that relocalization and loss recovery align through.
 
 #include <algorithm>
 #include <cmath>
@@ -145,6 +145,35 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthImage& depth,
   }
   timings.icp_ms += ms_since(t0);
   return result;
+}
+
+Status Reconstructor::Impl::load_frame(const DepthImage& depth, FrameTimings& timings) {
+  return preprocess(depth, nullptr, timings);
+}
+
+Status Reconstructor::Impl::set_reference(const Eigen::Isometry3d& T_world_camera,
+                                          FrameTimings& timings) {
+  auto updated = fuse_and_update_reference(T_world_camera, false, false, timings);
+  return updated ? Status{} : Status{updated.error()};
+}
+
+Result<ModelAligner::Placement> Reconstructor::Impl::place(const DepthImage& depth,
+                                                           const Eigen::Isometry3d& T_world_seed,
+                                                           FrameTimings& timings) {
+  IMUFUSION_RETURN_IF_ERROR(set_reference(T_world_seed, timings));
+  auto icp = align(depth, T_world_seed, MotionPrediction{}, true, timings);
+  if (!icp) return icp.error();
+  return Placement{*icp, T_world_reference * icp->T_ref_cur};
+}
+
+Result<std::vector<Eigen::Vector3d>> Reconstructor::Impl::frame_points(int level) {
+  const Intrinsics& k = current.intrinsics(level);
+  auto map = download_map(current.vertices(level), k.width, k.height);
+  if (!map) return map.error();
+  std::vector<Eigen::Vector3d> points;
+  for (const Eigen::Vector4f& v : map->data)
+    if (v.w() > 0.5f) points.push_back(v.head<3>().cast<double>());
+  return points;
 }
 
 }  // namespace imufusion

@@ -42,6 +42,8 @@ Result<Reconstructor> Reconstructor::create(const ReconstructorConfig& config) {
   m.machine = TrackingStateMachine(config.tracking);
   m.pairing = PairingReference(config.tracking);
   m.prediction_calibration = PredictionCalibration(config.tracking);
+  m.relocalization = RelocalizationDriver(config);
+  m.recovery = LossRecovery(config);
   m.tracking_level = resolve_tracking_level(config, m.context->info().type);
   const Intrinsics& k = config.intrinsics;
   const auto pixels = static_cast<std::size_t>(k.width) * k.height;

@@ -1,0 +1,146 @@
+// RelocalizationDriver: when a lost frame searches the model, the search and its candidates' ICP.
+
+#include "scan/relocalization.hpp"
+
+#include <algorithm>
+#include <limits>
+#include <utility>
+
+#include "scan/clock.hpp"
+
+namespace imufusion {
+
+RelocalizationDriver::RelocalizationDriver(const ReconstructorConfig& config)
+    : config_(config.relocalization),
+      icp_reach_(config.icp.max_distance[static_cast<std::size_t>(config.preprocess.levels - 1)]),
+      coarse_level_(config.preprocess.levels - 1),
+      max_depth_(config.preprocess.max_depth) {}
+
+void RelocalizationDriver::reset() {
+  field_current_ = false;
+  lost_frames_since_attempt_ = 0;
+}
+
+Result<RelocalizationDriver::Outcome> RelocalizationDriver::on_frame(const Frame& frame,
+                                                                     const DepthImage& depth,
+                                                                     ModelAligner& model,
+                                                                     FrameTimings& timings) {
+  Outcome out;
+  out.long_loss = long_loss(frame);
+  if (!should_search(frame, out.long_loss)) return out;
+  auto found = search(frame, depth, model, timings);
+  if (!found) return found.error();
+  out.found = std::move(*found);
+  return out;
+}
+
+// How far dead reckoning may have drifted in `lost_seconds` since the last fully constrained
+// frame (m), from the coarsest ICP level's reach up to relocalization.max_radius.
+double RelocalizationDriver::drift_radius(double lost_seconds) const {
+  return std::min(
+      config_.max_radius,
+      std::max<double>(icp_reach_, 0.5 * config_.drift_acceleration * lost_seconds * lost_seconds));
+}
+
+// A loss long enough that the dead-reckoned seed may lie beyond ICP's reach: an alignment
+// from it can settle on the wrong stretch of a weakly constrained view, so recovery must be
+// confirmed by the relocalization search.
+bool RelocalizationDriver::long_loss(const Frame& frame) const {
+  return config_.enabled && frame.rotation_from_imu && frame.lost &&
+         drift_radius(frame.timestamp - frame.constrained_time) > icp_reach_;
+}
+
+// Whether this frame searches for its pose: every relocalization.interval lost frames, and
+// whenever ICP from the seed would end a long loss.
+bool RelocalizationDriver::should_search(const Frame& frame, bool long_loss) {
+  if (!frame.lost) {
+    lost_frames_since_attempt_ = 0;
+    return false;
+  }
+  if (!config_.enabled || !frame.rotation_from_imu) return false;
+  if (frame.icp_reliable) return long_loss;
+  if (++lost_frames_since_attempt_ < config_.interval) return false;
+  lost_frames_since_attempt_ = 0;
+  return true;
+}
+
+// The distance field of the model's surface within a search's reach of `anchor` (world, m):
+// an unbounded scene costs no more than a room.
+Status RelocalizationDriver::build_field(ModelAligner& model, const Eigen::Vector3d& anchor) {
+  auto snapshot = model.model_snapshot();
+  if (!snapshot) return snapshot.error();
+  std::vector<Eigen::Vector3d> surface = volume_surface_points(*snapshot);
+  const double cutoff = 4 * config_.cell;
+  const double reach = config_.max_radius + max_depth_ + cutoff;
+  std::erase_if(surface, [&](const Eigen::Vector3d& p) {
+    return (p - anchor).cwiseAbs().maxCoeff() > reach;
+  });
+  field_ = SurfaceDistanceField(surface, config_.cell, cutoff);
+  field_current_ = true;
+  return {};
+}
+
+// The translation search and ICP from its best candidates; the reliable, converged alignment
+// with the lowest residual per weight, if it is the only place the frame fits: when another
+// candidate's ICP also passes every test but the condition number somewhere else (more than
+// two cells away), the view is ambiguous (a wall and the floor slide along their common line)
+// and nothing is accepted.
+Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(const Frame& frame,
+                                                                            const DepthImage& depth,
+                                                                            ModelAligner& model,
+                                                                            FrameTimings& timings) {
+  const auto t0 = Clock::now();
+  if (!field_current_) IMUFUSION_RETURN_IF_ERROR(build_field(model, frame.lost_at));
+  const double radius = drift_radius(frame.timestamp - frame.constrained_time);
+  auto points = model.frame_points(coarse_level_);
+  if (!points) return points.error();
+  constexpr std::size_t kMaxPoints = 800;  // enough for a chamfer fit; the search is linear in it
+  if (points->size() > kMaxPoints) {
+    std::vector<Eigen::Vector3d> kept;
+    const double stride = static_cast<double>(points->size()) / kMaxPoints;
+    for (std::size_t i = 0; i < kMaxPoints; ++i)
+      kept.push_back((*points)[static_cast<std::size_t>(static_cast<double>(i) * stride)]);
+    *points = std::move(kept);
+  }
+  const Eigen::Isometry3d& T_estimate = frame.T_world_estimate;
+  std::vector<TranslationCandidate> candidates = field_.search(
+      *points, T_estimate.linear(), T_estimate.translation(), radius, config_.candidates);
+  // Dead reckoning may have drifted beyond the search, while a hand-held camera that turns back
+  // to the scanned model is seldom far from where the scan was lost: search there too.
+  if ((frame.lost_at - T_estimate.translation()).norm() > config_.cell) {
+    candidates = merge_candidates(
+        candidates,
+        field_.search(*points, T_estimate.linear(), frame.lost_at, radius, config_.candidates),
+        config_.candidates, 2 * config_.cell);
+  }
+  std::optional<ModelAligner::Placement> best;
+  IcpReliabilityThresholds plausible = model.reliability(depth);
+  plausible.max_condition = std::numeric_limits<double>::infinity();
+  std::vector<Eigen::Vector3d> fits;  // where the frame fits but for the condition number
+  FrameTimings candidate_timings;     // kept out of the frame's ICP and raycast times
+  for (const TranslationCandidate& c : candidates) {
+    if (c.near_fraction < plausible.min_inlier_fraction) continue;
+    Eigen::Isometry3d T_candidate = T_estimate;
+    T_candidate.translation() = c.translation;
+    // No IMU prediction: the full six-direction solve, which a wall alone cannot pass.
+    auto placed = model.place(depth, T_candidate, candidate_timings);
+    if (!placed) return placed.error();
+    const IcpResult& icp = placed->icp;
+    if (icp.quality.iterations > 0 && judge_icp(icp.quality, plausible, nullptr))
+      fits.push_back(placed->T_world_camera.translation());
+    if (!icp.reliable() || !icp.quality.converged) continue;
+    if (!best || icp.quality.residual_per_weight < best->icp.quality.residual_per_weight)
+      best = std::move(*placed);
+  }
+  const double apart = 2 * config_.cell;
+  if (best && std::any_of(fits.begin(), fits.end(), [&](const Eigen::Vector3d& p) {
+        return (p - best->T_world_camera.translation()).norm() > apart;
+      }))
+    best.reset();
+  timings.kernels.insert(timings.kernels.end(), candidate_timings.kernels.begin(),
+                         candidate_timings.kernels.end());
+  timings.relocalize_ms = ms_since(t0);
+  return best;
+}
+
+}  // namespace imufusion

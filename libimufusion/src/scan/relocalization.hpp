@@ -1,0 +1,64 @@
+#pragma once
+// RelocalizationDriver: when a lost frame searches the model for where it fits
+// (ReconstructorConfig::relocalization), the search itself (core/relocalizer.hpp) over a distance
+// field of the model, and full ICP from its best candidates.
+
+#include <optional>
+
+#include "core/relocalizer.hpp"
+#include "scan/model_aligner.hpp"
+
+namespace imufusion {
+
+class RelocalizationDriver {
+ public:
+  /// A tracked frame, as relocalization sees it.
+  struct Frame {
+    double timestamp = 0;            // s
+    bool lost = false;               // the scan was lost before this frame
+    bool rotation_from_imu = false;  // the seed's rotation came from the gyroscope
+    bool icp_reliable = false;       // ICP from the seed placed the frame in every direction
+    // Where the frame is without a search: its orientation is kept, its translation searched.
+    Eigen::Isometry3d T_world_estimate = Eigen::Isometry3d::Identity();
+    double constrained_time = 0;                        // s: the last fully constrained frame's
+    Eigen::Vector3d lost_at = Eigen::Vector3d::Zero();  // world, m: that frame's position
+  };
+  struct Outcome {
+    /// The dead-reckoned seed may lie beyond ICP's reach: ICP from it ends the loss only when
+    /// the search confirms it.
+    bool long_loss = false;
+    std::optional<ModelAligner::Placement> found;  // the alignment a search accepted
+  };
+
+  RelocalizationDriver() = default;
+  explicit RelocalizationDriver(const ReconstructorConfig& config);
+
+  /// Counts the lost frames and, where this one searches (every relocalization.interval lost
+  /// frames, and whenever ICP from the seed would end a long loss), runs the search with
+  /// `model`'s current frame, `depth`. The search's raycasts and ICP add their kernels to
+  /// `timings`, their wall time to relocalize_ms only.
+  Result<Outcome> on_frame(const Frame& frame, const DepthImage& depth, ModelAligner& model,
+                           FrameTimings& timings);
+  /// The model changed (a frame was fused): the distance field is built again at the next search.
+  void model_changed() { field_current_ = false; }
+  void reset();
+
+ private:
+  double drift_radius(double lost_seconds) const;
+  bool long_loss(const Frame& frame) const;
+  bool should_search(const Frame& frame, bool long_loss);
+  Status build_field(ModelAligner& model, const Eigen::Vector3d& anchor);
+  Result<std::optional<ModelAligner::Placement>> search(const Frame& frame, const DepthImage& depth,
+                                                        ModelAligner& model, FrameTimings& timings);
+
+  RelocalizationConfig config_;
+  double icp_reach_ = 0;  // m: ICP's largest correspondence distance, at its coarsest level
+  int coarse_level_ = 0;  // the pyramid's coarsest level, where the frame's points are taken
+  double max_depth_ = 0;  // m: the farthest depth preprocessing keeps
+  // The model's distance field, built at the first search after the model last changed.
+  SurfaceDistanceField field_;
+  bool field_current_ = false;
+  int lost_frames_since_attempt_ = 0;
+};
+
+}  // namespace imufusion
