@@ -170,8 +170,9 @@ Trajectory trajectory_from_object(const py::handle& value, const char* name) {
   Trajectory trajectory;
   if (!py::isinstance<py::array>(value) && py::isinstance<py::sequence>(value)) {
     for (const py::handle item : value) {
-      const auto pair = item.cast<py::tuple>();
-      if (pair.size() != 2) bad_array(name, "a list of (t, 4x4 array)", item);
+      if (!py::isinstance<py::sequence>(item) || py::len(item) != 2)
+        bad_array(name, "a list of (t, 4x4 array) pairs", item);
+      const auto pair = py::reinterpret_borrow<py::sequence>(item);
       trajectory.push_back({pair[0].cast<double>(), pose_from_array(pair[1], name)});
     }
     return trajectory;

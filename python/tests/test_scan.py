@@ -2,6 +2,7 @@
 known-pose fusion and the outputs written to disk."""
 
 import numpy as np
+import pytest
 
 import imufusion
 from conftest import pose_matrix as _pose, position_errors, scan_sequence
@@ -57,10 +58,14 @@ def test_mesh_preview_and_outputs(small_sequence, tmp_path):
     imufusion.write_trajectory(tmp_path / "trajectory.txt", scanner.trajectory(), "python scan")
     np.testing.assert_allclose(imufusion.read_trajectory(tmp_path / "trajectory.txt"),
                                scanner.trajectory(), atol=1e-6)
-    as_pairs = [(r.timestamp, r.T_world_camera) for r in results]
+    as_pairs = [[r.timestamp, r.T_world_camera] for r in results]
     imufusion.write_trajectory(tmp_path / "pairs.txt", as_pairs)
     np.testing.assert_allclose(imufusion.read_trajectory(tmp_path / "pairs.txt")[:, 1:4],
                                scanner.trajectory()[:, 1:4], atol=1e-6)
+    with pytest.raises(ValueError, match=r"\(t, 4x4 array\) pairs, got float"):
+        imufusion.write_trajectory(tmp_path / "bad.txt", [1.0, 2.0])
+    with pytest.raises(ValueError, match=r"\(N, 8\).*shape \(40, 7\)"):
+        imufusion.write_trajectory(tmp_path / "bad.txt", scanner.trajectory()[:, :7])
 
 
 def test_known_poses_and_metre_depth(small_sequence):
