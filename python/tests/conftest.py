@@ -12,6 +12,27 @@ import imufusion
 SMALL_SCAN = dict(scene="room", seed=3, frames=40, width=160, height=120)
 
 
+def gpu_required():
+    """As the C++ GPU tests: CI or IMUFUSION_REQUIRE_GPU make a missing device a failure."""
+    return any(os.environ.get(name, "") not in ("", "0", "false")
+               for name in ("IMUFUSION_REQUIRE_GPU", "CI"))
+
+
+@pytest.fixture(scope="session")
+def vulkan_device():
+    """The first Vulkan device's name; skips (fails where GPU tests are required) without one."""
+    try:
+        devices = imufusion.list_devices()
+        reason = "the Vulkan device list is empty"
+    except imufusion.Error as error:
+        devices, reason = [], str(error)
+    if not devices:
+        if gpu_required():
+            pytest.fail(f"no Vulkan device, and GPU tests are required here: {reason}")
+        pytest.skip(f"no Vulkan device: {reason}")
+    return devices[0]["name"]
+
+
 @pytest.fixture(scope="session")
 def small_sequence(tmp_path_factory):
     """A 40-frame 160x120 room sequence with IMU and ground truth."""

@@ -13,7 +13,7 @@ def small_config():
 
 
 @pytest.fixture(scope="module")
-def scanner():
+def scanner(vulkan_device):
     return imufusion.Reconstructor(small_config())
 
 
@@ -27,7 +27,7 @@ def test_error_is_a_runtime_error_naming_the_missing_directory(tmp_path):
         imufusion.read_mesh(tmp_path / "no_such_mesh.ply")
 
 
-def test_config_fields_are_reachable_and_validated():
+def test_config_fields_are_reachable_and_validated(vulkan_device):
     config = small_config()
     assert config.imu.enabled
     assert config.icp.max_total_iterations == imufusion.PRESET_ICP_ITERATIONS_WITH_IMU == 2

@@ -6,10 +6,14 @@ import re
 import subprocess
 import sys
 
+import pytest
+
 import imufusion
 
 README = pathlib.Path(os.environ.get("IMUFUSION_SOURCE_DIR",
                                      pathlib.Path(__file__).parents[2])) / "README.md"
+
+pytestmark = pytest.mark.usefixtures("vulkan_device")  # scans need a Vulkan device
 
 
 def readme_python_blocks():

@@ -7,6 +7,8 @@ import pytest
 import imufusion
 from conftest import pose_matrix as _pose, position_errors, scan_sequence
 
+pytestmark = pytest.mark.usefixtures("vulkan_device")  # scans need a Vulkan device
+
 
 def test_scan_tracks_every_frame_near_ground_truth(small_sequence):
     scanner, results = scan_sequence(small_sequence)

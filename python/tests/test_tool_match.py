@@ -4,9 +4,12 @@ synthesizes, the same configuration (sequence_config), the same trajectory to 1e
 import subprocess
 
 import numpy as np
+import pytest
 
 import imufusion
 from conftest import scan_sequence
+
+pytestmark = pytest.mark.usefixtures("vulkan_device")  # scans need a Vulkan device
 
 
 def test_demo_scan_matches_imufusion_scan(tmp_path, scan_tool):
