@@ -162,10 +162,13 @@ void bind_outputs(py::class_<Reconstructor>& c) {
 void bind_scanner(py::module_& m) {
   bind_frame_result(m);
   py::class_<Reconstructor> c(m, "Reconstructor", "The scanner: IMU-seeded ICP and TSDF fusion");
-  c.def(py::init([](const ReconstructorConfig& config) {
-          return std::make_unique<Reconstructor>(unwrap(Reconstructor::create(config)));
-        }),
-        py::arg("config"), "Creates the scanner on a Vulkan device; raises imufusion.Error")
+  const auto create = [](const ReconstructorConfig& config) {
+    return std::make_unique<Reconstructor>(unwrap(Reconstructor::create(config)));
+  };
+  constexpr const char* kCreateDoc =
+      "Creates the scanner on a Vulkan device; raises imufusion.Error";
+  c.def(py::init(create), py::arg("config"), kCreateDoc)
+      .def_static("create", create, py::arg("config"), kCreateDoc)
       .def_property_readonly(
           "config", [](const Reconstructor& self) { return self.config(); },
           "a copy of the configuration")

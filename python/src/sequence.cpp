@@ -3,6 +3,8 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include <memory>
+
 #include "bindings.hpp"
 #include "convert.hpp"
 
@@ -56,17 +58,21 @@ void bind_frame(py::module_& m) {
                     "(N, 7) t gx gy gz ax ay az: the samples since the previous frame");
 }
 
+std::unique_ptr<SequenceReader> open_reader(const std::filesystem::path& directory,
+                                            bool load_color) {
+  SequenceOptions options;
+  options.load_color = load_color;
+  return std::make_unique<SequenceReader>(unwrap(SequenceReader::open(directory, options)));
+}
+
 void bind_reader(py::module_& m) {
+  constexpr const char* kOpenDoc =
+      "Opens and checks a sequence; raises imufusion.Error naming the file at fault";
   py::class_<SequenceReader>(m, "SequenceReader",
                              "A recorded sequence (FORMAT.md); iterating gives its Frames")
-      .def(py::init([](const std::filesystem::path& directory, bool load_color) {
-             SequenceOptions options;
-             options.load_color = load_color;
-             return std::make_unique<SequenceReader>(
-                 unwrap(SequenceReader::open(directory, options)));
-           }),
-           py::arg("directory"), py::arg("load_color") = true,
-           "Opens and checks a sequence; raises imufusion.Error naming the file at fault")
+      .def(py::init(&open_reader), py::arg("directory"), py::arg("load_color") = true, kOpenDoc)
+      .def_static("open", &open_reader, py::arg("directory"), py::arg("load_color") = true,
+                  kOpenDoc)
       .def_property_readonly("directory",
                              [](const SequenceReader& s) { return s.info().directory; })
       .def_property_readonly("intrinsics", &SequenceReader::intrinsics, "Intrinsics or None")

@@ -14,7 +14,7 @@ def small_config():
 
 @pytest.fixture(scope="module")
 def scanner(vulkan_device):
-    return imufusion.Reconstructor(small_config())
+    return imufusion.Reconstructor.create(small_config())
 
 
 def test_error_is_a_runtime_error_naming_the_missing_directory(tmp_path):

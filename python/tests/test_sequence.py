@@ -63,7 +63,7 @@ def test_written_sequence_reads_back(tmp_path):
 
 
 def test_synthesized_sequence(small_sequence):
-    sequence = imufusion.SequenceReader(small_sequence)
+    sequence = imufusion.SequenceReader.open(small_sequence)
     assert len(sequence) == 40 and (sequence.width, sequence.height) == (160, 120)
     assert sequence.has_imu and sequence.has_ground_truth and sequence.has_imu_to_camera
     assert "imufusion-synth" in sequence.info["source"]
