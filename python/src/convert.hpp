@@ -19,6 +19,9 @@ namespace imufusion::python {
 
 namespace py = pybind11;
 
+/// Raw depth units per metre when a call is given none (TUM's and the synthetic sensor's).
+inline constexpr double kDefaultDepthScale = 5000.0;
+
 /// A failing Result or Status on its way to Python, where it becomes imufusion.Error (a
 /// RuntimeError whose text is the error's describe() and whose `code` names the ErrorCode).
 class ResultError : public std::runtime_error {

@@ -11,8 +11,6 @@ namespace imufusion::python {
 
 namespace {
 
-constexpr double kDefaultDepthScale = 5000.0;  // raw units per metre (TUM, the synthetic sensor)
-
 // The images and IMU samples of one frame, checked against the scanner's camera.
 struct FrameInput {
   DepthImage depth;
@@ -25,14 +23,14 @@ FrameInput frame_input(const Reconstructor& scanner, const py::handle& depth,
   FrameInput in{depth_from_array(depth, depth_scale, "depth"), std::nullopt,
                 imu_from_object(imu, "imu")};
   const Intrinsics& k = scanner.config().intrinsics;
-  const std::string expected =
-      "(" + std::to_string(k.height) + ", " + std::to_string(k.width) + ") (the intrinsics' size)";
+  const std::string size = std::to_string(k.height) + ", " + std::to_string(k.width);
   if (in.depth.width != k.width || in.depth.height != k.height)
-    throw py::value_error("depth: expected shape " + expected + ", got " + describe_array(depth));
+    throw py::value_error("depth: expected shape (" + size + ") (the intrinsics' size), got " +
+                          describe_array(depth));
   if (!color.is_none()) {
     in.color = color_from_array(color, "color");
     if (in.color->width != k.width || in.color->height != k.height)
-      throw py::value_error("color: expected shape " + expected + " x 3, got " +
+      throw py::value_error("color: expected shape (" + size + ", 3) (the intrinsics' size), got " +
                             describe_array(color));
   }
   return in;

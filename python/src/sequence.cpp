@@ -12,8 +12,6 @@ namespace imufusion::python {
 
 namespace {
 
-constexpr double kDefaultDepthScale = 5000.0;  // raw units per metre (TUM, the synthetic sensor)
-
 // One frame of a sequence as arrays.
 struct PyFrame {
   std::size_t index = 0;

@@ -70,6 +70,8 @@ def test_wrong_depth_and_color_arrays_raise_value_error(scanner):
         scanner.track_and_fuse(1.0, depth, color.astype(np.float32))
     with pytest.raises(ValueError, match=r"color: .*got uint8 array of shape \(120, 160, 4\)"):
         scanner.track_and_fuse(1.0, depth, np.zeros((120, 160, 4), np.uint8))
+    with pytest.raises(ValueError, match=r"color: expected shape \(120, 160, 3\).*\(60, 80, 3\)"):
+        scanner.track_and_fuse(1.0, depth, np.zeros((60, 80, 3), np.uint8))
     with pytest.raises(ValueError, match="depth_scale must be positive"):
         scanner.track_and_fuse(1.0, depth, depth_scale=0)
 
