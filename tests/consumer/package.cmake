@@ -7,6 +7,9 @@
 #             library with the dev packages of the private dependencies hidden from find_package
 #   example   builds examples/ against the prefix, scans a small synthetic room with
 #             scan_own_camera and checks its trajectory against ground truth and its mesh
+#   python    (with -D PYTHON, the interpreter, and PYTHON_DIR, the module's directory relative
+#             to the prefix) imports the installed module with PYTHONPATH set to that directory
+#             alone, from outside the build tree, and reads a sequence it synthesizes
 set(prefix ${WORK_DIR}/prefix)
 
 function(run)
@@ -81,6 +84,27 @@ elseif(STEP STREQUAL "example")
   endif()
   file(SIZE ${out}/preview.png preview_bytes)
   message("scan_own_camera: ATE ${ate} m over ${matched} frames, preview ${preview_bytes} bytes")
+elseif(STEP STREQUAL "python")
+  set(ENV{PYTHONPATH} ${prefix}/${PYTHON_DIR})
+  set(check [=[
+import os, sys, imufusion
+prefix = os.path.realpath(sys.argv[1])
+assert os.path.realpath(imufusion.__file__).startswith(prefix + os.sep), imufusion.__file__
+imufusion.synthesize("python_room", frames=3, width=64, height=48, overwrite=True)
+sequence = imufusion.SequenceReader("python_room")
+config = imufusion.sequence_config(imufusion.SensorPreset.KINECT, sequence)
+config.validate()
+frame = next(sequence)
+assert frame.depth.shape == (48, 64) and frame.depth.dtype.name == "uint16", frame.depth.shape
+print("imported", imufusion.__file__, "version", imufusion.__version__)
+]=])
+  execute_process(COMMAND ${PYTHON} -c "${check}" ${prefix} WORKING_DIRECTORY ${WORK_DIR}
+                  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "the installed module failed (${rc}) with PYTHONPATH=$ENV{PYTHONPATH}:\n"
+                        "${out}\n${err}")
+  endif()
+  message("${out}")
 else()
   message(FATAL_ERROR "unknown STEP '${STEP}'")
 endif()

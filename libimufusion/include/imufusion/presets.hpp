@@ -7,9 +7,12 @@
 #include <string_view>
 
 #include "imufusion/reconstructor.hpp"
+#include "imufusion/result.hpp"
 #include "imufusion/types.hpp"
 
 namespace imufusion {
+
+class SequenceReader;
 
 /// Classes of depth sensor with measured defaults.
 enum class SensorPreset {
@@ -30,6 +33,14 @@ std::optional<SensorPreset> parse_sensor_preset(std::string_view name);
 /// mounting is left unknown (the scanner estimates its rotation): set inertial.T_camera_imu and
 /// inertial.T_camera_imu_known when it is known.
 ReconstructorConfig preset_config(SensorPreset sensor, const Intrinsics& intrinsics, bool with_imu);
+
+/// preset_config for a recorded sequence, as imufusion-scan scans one: its intrinsics with the
+/// depth images' size; the IMU when `with_imu`, the sequence has imu.txt and its samples span at
+/// least one depth frame; imu_to_camera.txt, when present, as the known mounting (else estimated);
+/// info.txt's gyro_noise_density (rad/s/sqrt(Hz)) when it is a positive number. Fails
+/// (kInvalidArgument) when the sequence has no intrinsics (no calibration.txt and none given).
+Result<ReconstructorConfig> sequence_config(SensorPreset sensor, const SequenceReader& sequence,
+                                            bool with_imu = true);
 
 /// Gauss-Newton steps per frame at most in the presets, with and without an IMU (the paper's
 /// comparison: one to two with the gyro's seed against up to 30 without).
