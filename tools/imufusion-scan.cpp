@@ -124,19 +124,14 @@ ReconstructorConfig make_config(const ScanOptions& opt, const SequenceReader* re
   config.device.selector = opt.device;
   if (opt.icp_iterations) config.icp.max_total_iterations = *opt.icp_iterations;
   config.tracking.recovery_frames = opt.recovery_frames;
-  std::optional<Eigen::Isometry3d> T_camera_imu =
-      source != nullptr ? source->T_camera_imu() : std::nullopt;
-  if (reader != nullptr && reader->info().has_imu_to_camera)
-    T_camera_imu = reader->info().T_camera_imu;
-  config.inertial.T_camera_imu_known = T_camera_imu.has_value() && !opt.estimate_imu_rotation;
-  config.inertial.T_camera_imu =
-      config.inertial.T_camera_imu_known ? *T_camera_imu : Eigen::Isometry3d::Identity();
-  if (reader != nullptr) {
-    const auto& info = reader->info().info;
-    if (auto noise = info.find("gyro_noise_density"); noise != info.end()) {
-      if (auto v = tools::parse_number(noise->second); v && *v > 0)
-        config.inertial.gyro_noise_density = *v;
-    }
+  if (source != nullptr && source->T_camera_imu()) {
+    config.inertial.T_camera_imu = *source->T_camera_imu();
+    config.inertial.T_camera_imu_known = true;
+  }
+  if (reader != nullptr) apply_sequence_calibration(*reader, config);
+  if (opt.estimate_imu_rotation) {
+    config.inertial.T_camera_imu = Eigen::Isometry3d::Identity();
+    config.inertial.T_camera_imu_known = false;
   }
   if (opt.translation) config.inertial.translation = *opt.translation;
   return config;

@@ -41,6 +41,9 @@ ReconstructorConfig preset_config(SensorPreset sensor, const Intrinsics& intrins
 /// (kInvalidArgument) when the sequence has no intrinsics (no calibration.txt and none given).
 Result<ReconstructorConfig> sequence_config(SensorPreset sensor, const SequenceReader& sequence,
                                             bool with_imu = true);
+/// The part of sequence_config that a recording's calibration gives: imu_to_camera.txt as the
+/// known mounting (left as it is when absent) and info.txt's gyro_noise_density.
+void apply_sequence_calibration(const SequenceReader& sequence, ReconstructorConfig& config);
 
 /// Gauss-Newton steps per frame at most in the presets, with and without an IMU (the paper's
 /// comparison: one to two with the gyro's seed against up to 30 without).

@@ -34,6 +34,12 @@ Result<ReconstructorConfig> sequence_config(SensorPreset sensor, const SequenceR
   const bool imu_usable =
       sequence.has_imu() && io::frames_within_imu(sequence.imu(), sequence.timestamps()) > 0;
   ReconstructorConfig config = preset_config(sensor, k, with_imu && imu_usable);
+  apply_sequence_calibration(sequence, config);
+  return config;
+}
+
+void apply_sequence_calibration(const SequenceReader& sequence, ReconstructorConfig& config) {
+  const SequenceInfo& info = sequence.info();
   if (info.has_imu_to_camera) {
     config.inertial.T_camera_imu = info.T_camera_imu;
     config.inertial.T_camera_imu_known = true;
@@ -41,7 +47,6 @@ Result<ReconstructorConfig> sequence_config(SensorPreset sensor, const SequenceR
   if (auto noise = info.info.find("gyro_noise_density"); noise != info.info.end()) {
     if (auto v = parse_number(noise->second); v && *v > 0) config.inertial.gyro_noise_density = *v;
   }
-  return config;
 }
 
 }  // namespace imufusion
