@@ -279,6 +279,79 @@ void run_tum(const std::filesystem::path& dir) {
               percentile(no_imu.trans_mm, 0.95));
 }
 
+// Everything the runs over scenes and seeds collect.
+struct Collected {
+  std::map<std::string, std::map<TranslationModel, Errors>> errors;
+  std::map<std::string, Errors> no_imu;
+  std::map<TranslationModel, std::vector<double>> drift_pos, drift_rot;
+  std::map<TranslationModel, std::map<int, std::vector<double>>> drift_pos_at;
+  std::vector<std::map<int, double>> bias_runs, hand_eye_runs, hand_eye_bias_runs;
+  std::vector<double> switch_times;
+};
+
+// One scene and seed: every translation model (and the wall's dead reckoning), the frames
+// without an IMU, and the hand-eye estimate from the identity.
+void collect_seed(synth::SceneKind kind, std::uint64_t seed, double seconds,
+                  const synth::ImuConfig& imu, Collected& c) {
+  const Eigen::Isometry3d T_ci = imu.T_camera_imu;
+  const synth::CameraMotion motion(kind, seed, 100.0);
+  const synth::ImuBias bias = synth::draw_imu_bias(seed);
+  const std::vector<ImuSample> samples =
+      synth::generate_imu(motion, imu, bias, 99.9, 100.0 + seconds + 0.2, seed);
+  for (const TranslationModel model : kModels) {
+    const RunResult r = run(motion, seed, seconds, base_config(T_ci, model), samples, bias,
+                            T_ci.linear(), std::nullopt);
+    c.errors[synth::to_string(kind)][model].append(r.errors);
+    if (model == TranslationModel::kNone) c.bias_runs.push_back(r.bias_error);
+    if (kind == synth::SceneKind::kWall) {
+      const RunResult d = run(motion, seed, seconds, base_config(T_ci, model), samples, bias,
+                              T_ci.linear(), motion.wall_stretch());
+      c.drift_pos[model].push_back(d.drift_pos_mm);
+      for (const auto& [at, mm] : d.drift_pos_at_mm) c.drift_pos_at[model][at].push_back(mm);
+      c.drift_rot[model].push_back(d.drift_rot_deg);
+    }
+  }
+  for (int k = 1; k <= static_cast<int>(seconds * kFps); ++k) {
+    const double ta = 100.0 + (k - 1) / kFps, tb = 100.0 + k / kFps;
+    if (tb - 100.0 > kSettle) {
+      c.no_imu[synth::to_string(kind)].add(Eigen::Isometry3d::Identity(),
+                                           motion.pose_at(ta).inverse() * motion.pose_at(tb));
+    }
+  }
+  InertialConfig unknown =
+      base_config(Eigen::Isometry3d::Identity(), TranslationModel::kConstantVelocity);
+  unknown.T_camera_imu_known = false;
+  const RunResult h =
+      run(motion, seed, seconds, unknown, samples, bias, T_ci.linear(), std::nullopt);
+  c.hand_eye_runs.push_back(h.hand_eye_error);
+  c.hand_eye_bias_runs.push_back(h.bias_error);
+  c.switch_times.push_back(std::isnan(h.switch_time) ? 1e9 : h.switch_time);
+}
+
+void print_dead_reckoning(const Collected& c) {
+  std::printf(
+      "\nDead reckoning through the wall stretch (2 s unreliable, pose_b = pose_a * "
+      "prediction): error at its end, median / p95 over seeds\n\n");
+  std::printf("| model | position mm | rotation deg |\n| --- | --- | --- |\n");
+  for (const TranslationModel m : kModels) {
+    std::printf("| %s | %.0f / %.0f | %.3f / %.3f |\n", to_string(m),
+                percentile(c.drift_pos.at(m), 0.5), percentile(c.drift_pos.at(m), 0.95),
+                percentile(c.drift_rot.at(m), 0.5), percentile(c.drift_rot.at(m), 0.95));
+  }
+  std::printf("\nPosition drift into the stretch, mm, median / p95 over seeds\n\n| model |");
+  for (const int at : kDriftTimesMs) std::printf(" %d ms |", at);
+  std::printf("\n| --- |");
+  for (std::size_t i = 0; i < std::size(kDriftTimesMs); ++i) std::printf(" --- |");
+  std::printf("\n");
+  for (const TranslationModel m : kModels) {
+    std::printf("| %s |", to_string(m));
+    for (const int at : kDriftTimesMs)
+      std::printf(" %.1f / %.1f |", percentile(c.drift_pos_at.at(m).at(at), 0.5),
+                  percentile(c.drift_pos_at.at(m).at(at), 0.95));
+    std::printf("\n");
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -303,86 +376,27 @@ int main(int argc, char** argv) {
     return 2;
   }
   const synth::ImuConfig imu;  // noise and bias on, default mounting
-  const Eigen::Isometry3d T_ci = imu.T_camera_imu;
-  std::map<std::string, std::map<TranslationModel, Errors>> errors;
-  std::map<std::string, Errors> no_imu;
-  std::map<TranslationModel, std::vector<double>> drift_pos, drift_rot;
-  std::map<TranslationModel, std::map<int, std::vector<double>>> drift_pos_at;
-  std::vector<std::map<int, double>> bias_runs, hand_eye_runs, hand_eye_bias_runs;
-  std::vector<double> switch_times;
+  Collected c;
   for (const synth::SceneKind kind :
        {synth::SceneKind::kRoom, synth::SceneKind::kWall, synth::SceneKind::kFast}) {
-    for (int s = 0; s < seeds; ++s) {
-      const std::uint64_t seed = 301 + static_cast<std::uint64_t>(s);  // none used by the tests
-      const synth::CameraMotion motion(kind, seed, 100.0);
-      const synth::ImuBias bias = synth::draw_imu_bias(seed);
-      const std::vector<ImuSample> samples =
-          synth::generate_imu(motion, imu, bias, 99.9, 100.0 + seconds + 0.2, seed);
-      for (const TranslationModel model : kModels) {
-        const RunResult r = run(motion, seed, seconds, base_config(T_ci, model), samples, bias,
-                                T_ci.linear(), std::nullopt);
-        errors[synth::to_string(kind)][model].append(r.errors);
-        if (model == TranslationModel::kNone) bias_runs.push_back(r.bias_error);
-        if (kind == synth::SceneKind::kWall) {
-          const RunResult d = run(motion, seed, seconds, base_config(T_ci, model), samples, bias,
-                                  T_ci.linear(), motion.wall_stretch());
-          drift_pos[model].push_back(d.drift_pos_mm);
-          for (const auto& [at, mm] : d.drift_pos_at_mm) drift_pos_at[model][at].push_back(mm);
-          drift_rot[model].push_back(d.drift_rot_deg);
-        }
-      }
-      for (int k = 1; k <= static_cast<int>(seconds * kFps); ++k) {
-        const double ta = 100.0 + (k - 1) / kFps, tb = 100.0 + k / kFps;
-        if (tb - 100.0 > kSettle) {
-          no_imu[synth::to_string(kind)].add(Eigen::Isometry3d::Identity(),
-                                             motion.pose_at(ta).inverse() * motion.pose_at(tb));
-        }
-      }
-      InertialConfig unknown =
-          base_config(Eigen::Isometry3d::Identity(), TranslationModel::kConstantVelocity);
-      unknown.T_camera_imu_known = false;
-      const RunResult h =
-          run(motion, seed, seconds, unknown, samples, bias, T_ci.linear(), std::nullopt);
-      hand_eye_runs.push_back(h.hand_eye_error);
-      hand_eye_bias_runs.push_back(h.bias_error);
-      switch_times.push_back(std::isnan(h.switch_time) ? 1e9 : h.switch_time);
-    }
+    for (int s = 0; s < seeds; ++s)  // seeds 301...: none used by the tests
+      collect_seed(kind, 301 + static_cast<std::uint64_t>(s), seconds, imu, c);
   }
 
   std::printf(
       "Prediction error per frame (30 Hz, %d seeds per scene, %.0f s each, frames after "
       "%.0f s; tracked poses = truth + 0.05 deg / 1 mm noise)\n\n",
       seeds, seconds, kSettle);
-  print_prediction_table(errors, no_imu);
-  std::printf(
-      "\nDead reckoning through the wall stretch (2 s unreliable, pose_b = pose_a * "
-      "prediction): error at its end, median / p95 over seeds\n\n");
-  std::printf("| model | position mm | rotation deg |\n| --- | --- | --- |\n");
-  for (const TranslationModel m : kModels) {
-    std::printf("| %s | %.0f / %.0f | %.3f / %.3f |\n", to_string(m), percentile(drift_pos[m], 0.5),
-                percentile(drift_pos[m], 0.95), percentile(drift_rot[m], 0.5),
-                percentile(drift_rot[m], 0.95));
-  }
-  std::printf("\nPosition drift into the stretch, mm, median / p95 over seeds\n\n| model |");
-  for (const int at : kDriftTimesMs) std::printf(" %d ms |", at);
-  std::printf("\n| --- |");
-  for (std::size_t i = 0; i < std::size(kDriftTimesMs); ++i) std::printf(" --- |");
-  std::printf("\n");
-  for (const TranslationModel m : kModels) {
-    std::printf("| %s |", to_string(m));
-    for (const int at : kDriftTimesMs)
-      std::printf(" %.1f / %.1f |", percentile(drift_pos_at[m][at], 0.5),
-                  percentile(drift_pos_at[m][at], 0.95));
-    std::printf("\n");
-  }
-  print_over_time("Gyro bias error, mounting known", "deg/s", 1.0 / kDeg, bias_runs);
-  print_over_time("Mounting rotation error, hand-eye from identity", "deg", 1.0, hand_eye_runs);
-  print_over_time("Gyro bias error, mounting estimated", "deg/s", 1.0 / kDeg, hand_eye_bias_runs);
+  print_prediction_table(c.errors, c.no_imu);
+  print_dead_reckoning(c);
+  print_over_time("Gyro bias error, mounting known", "deg/s", 1.0 / kDeg, c.bias_runs);
+  print_over_time("Mounting rotation error, hand-eye from identity", "deg", 1.0, c.hand_eye_runs);
+  print_over_time("Gyro bias error, mounting estimated", "deg/s", 1.0 / kDeg, c.hand_eye_bias_runs);
   std::printf(
       "\nHand-eye estimate in use after: median %.1f s, p95 %.1f s, never in %d of %zu runs\n",
-      percentile(switch_times, 0.5), percentile(switch_times, 0.95),
-      static_cast<int>(std::count(switch_times.begin(), switch_times.end(), 1e9)),
-      switch_times.size());
+      percentile(c.switch_times, 0.5), percentile(c.switch_times, 0.95),
+      static_cast<int>(std::count(c.switch_times.begin(), c.switch_times.end(), 1e9)),
+      c.switch_times.size());
   if (std::filesystem::exists(tum)) {
     run_tum(tum);
   } else {

@@ -58,6 +58,26 @@ Frames room_frames(int width, int height, const Eigen::Isometry3d& T_ref_cur,
   return f;
 }
 
+// The GPU's reduced normal equations against the reference's, to float accumulation (1e-4).
+void expect_equations_match(const NormalEquations& gpu, const NormalEquations& want) {
+  EXPECT_EQ(gpu.inliers, want.inliers);
+  EXPECT_EQ(gpu.valid_pixels, want.valid_pixels);
+  EXPECT_GT(want.valid_pixels, want.inliers);
+  auto near = [](double a, double b) { return std::abs(a - b) <= 1e-4 * (std::abs(b) + 1e-6); };
+  EXPECT_GT(want.valid_information, want.inlier_information);
+  EXPECT_GT(want.inlier_information, 0.0);
+  EXPECT_TRUE(near(gpu.valid_information, want.valid_information))
+      << gpu.valid_information << " vs " << want.valid_information;
+  EXPECT_TRUE(near(gpu.inlier_information, want.inlier_information))
+      << gpu.inlier_information << " vs " << want.inlier_information;
+  for (int i = 0; i < 6; ++i) {
+    EXPECT_TRUE(near(gpu.Atb(i), want.Atb(i))) << gpu.Atb(i) << " vs " << want.Atb(i);
+    for (int j = 0; j < 6; ++j) EXPECT_TRUE(near(gpu.AtA(i, j), want.AtA(i, j))) << i << "," << j;
+  }
+  EXPECT_TRUE(near(gpu.btb, want.btb));
+  EXPECT_TRUE(near(gpu.weight_sum, want.weight_sum));
+}
+
 TEST_F(GpuTest, AssociationAndReductionMatchTheReference) {
   const Frames f = room_frames(97, 61, motion(1.5, {0.2, 1, 0.1}, {0.02, 0.01, -0.03}), true);
   const PreprocessConfig config;
@@ -132,23 +152,7 @@ TEST_F(GpuTest, AssociationAndReductionMatchTheReference) {
     EXPECT_EQ(value_mismatch, 0) << "level " << level;
 
     const NormalEquations want = reference::icp_reduce(gpu_rows, noise);
-    EXPECT_EQ(gpu_eq->inliers, want.inliers);
-    EXPECT_EQ(gpu_eq->valid_pixels, want.valid_pixels);
-    EXPECT_GT(want.valid_pixels, want.inliers);
-    auto near = [](double a, double b) { return std::abs(a - b) <= 1e-4 * (std::abs(b) + 1e-6); };
-    EXPECT_GT(want.valid_information, want.inlier_information);
-    EXPECT_GT(want.inlier_information, 0.0);
-    EXPECT_TRUE(near(gpu_eq->valid_information, want.valid_information))
-        << gpu_eq->valid_information << " vs " << want.valid_information;
-    EXPECT_TRUE(near(gpu_eq->inlier_information, want.inlier_information))
-        << gpu_eq->inlier_information << " vs " << want.inlier_information;
-    for (int i = 0; i < 6; ++i) {
-      EXPECT_TRUE(near(gpu_eq->Atb(i), want.Atb(i))) << gpu_eq->Atb(i) << " vs " << want.Atb(i);
-      for (int j = 0; j < 6; ++j)
-        EXPECT_TRUE(near(gpu_eq->AtA(i, j), want.AtA(i, j))) << i << "," << j;
-    }
-    EXPECT_TRUE(near(gpu_eq->btb, want.btb));
-    EXPECT_TRUE(near(gpu_eq->weight_sum, want.weight_sum));
+    expect_equations_match(*gpu_eq, want);
   }
 }
 

@@ -167,16 +167,9 @@ struct Stream {
   std::vector<std::uint64_t> data_at;   // each frame's NEW_DATA position
 };
 
-}  // namespace oni_detail
-
-/// Writes `recording` to `path`. kInvalidArgument when a frame's size or the timestamps do not
-/// make a valid recording (sizes must match the resolution, timestamps increase strictly).
-inline Status write_oni(const std::filesystem::path& path, const OniRecording& recording) {
-  using namespace oni_detail;
-  const std::size_t pixels = static_cast<std::size_t>(recording.width) * recording.height;
-  std::vector<Stream> streams;
-  streams.push_back(Stream{1, &recording.depth, true});
-  if (!recording.color.empty()) streams.push_back(Stream{2, &recording.color, false});
+// The frames' sizes and strictly increasing stamps of each stream; the latest stamp (us).
+inline Result<std::uint64_t> check_streams(const std::filesystem::path& path,
+                                           const std::vector<Stream>& streams, std::size_t pixels) {
   std::uint64_t max_timestamp = 0;
   for (const Stream& s : streams) {
     const std::size_t bytes = pixels * (s.depth ? 2 : 3);
@@ -192,74 +185,61 @@ inline Status write_oni(const std::filesystem::path& path, const OniRecording& r
       max_timestamp = std::max(max_timestamp, f.timestamp_us);
     }
   }
-  if (recording.depth.empty()) {
-    return make_error(ErrorCode::kInvalidArgument, path.string() + ": no depth frame to write");
+  return max_timestamp;
+}
+
+// What an interrupted recorder leaves in place of the counts it patches in when closed.
+constexpr std::uint32_t kUnknownCount = 0xffffffff;
+constexpr std::uint64_t kUnknownTime = ~std::uint64_t{0};
+
+inline std::uint32_t frame_count(const Stream& s, bool done) {
+  return done ? static_cast<std::uint32_t>(s.frames->size()) : kUnknownCount;
+}
+
+// A stream's NODE_ADDED record and its properties, up to NODE_STATE_READY.
+inline void write_node(Buffer& out, Stream& s, const OniRecording& recording, bool done) {
+  const std::size_t pixels = static_cast<std::size_t>(recording.width) * recording.height;
+  Buffer fields;
+  fields.string(s.depth ? "Depth" : "Image");
+  fields.u32(s.depth ? kNodeDepth : kNodeImage);
+  fields.u32(kCodecNone);
+  fields.u32(frame_count(s, done));
+  fields.u64(done ? s.frames->front().timestamp_us : 0);
+  fields.u64(done ? s.frames->back().timestamp_us : kUnknownTime);
+  s.seek_position_field = out.size() + kRecordHeaderSize + fields.size();
+  fields.u64(0);  // seek-table position, patched once the table is written
+  s.node_added_at = record(out, kNodeAdded, s.node, 0, fields);
+
+  int_property(out, s.node, "oniRequiredFrameSize", pixels * (s.depth ? 2 : 3));
+  int_property(out, s.node, "xnIsGenerating", 1);
+  if (s.depth) int_property(out, s.node, "xnDeviceMaxDepth", recording.max_depth_mm);
+  Buffer mode;  // XnMapOutputMode: x resolution, y resolution, fps (u32 each)
+  mode.u32(static_cast<std::uint32_t>(recording.width));
+  mode.u32(static_cast<std::uint32_t>(recording.height));
+  mode.u32(static_cast<std::uint32_t>(recording.fps));
+  general_property(out, s.node, "xnMapOutputMode", mode);
+  int_property(out, s.node, "xnPixelFormat", s.depth ? kXnGray16 : kXnRgb24);
+  int_property(out, s.node, "oniPixelFormat", s.depth ? kOniDepth1mm : kOniRgb888);
+  // The player hands out no frame of a stream whose cropping state it does not know.
+  int_property(out, s.node, "Cropping", 1);
+  Buffer cropping;  // XnCropping: enabled (u32), x offset, y offset, width, height (u16 each)
+  cropping.u32(0);
+  cropping.u16(0);
+  cropping.u16(0);
+  cropping.u16(static_cast<std::uint16_t>(recording.width));
+  cropping.u16(static_cast<std::uint16_t>(recording.height));
+  general_property(out, s.node, "xnCropping", cropping);
+  if (s.depth) {
+    Buffer fov;  // XnFieldOfView: horizontal, vertical (radians, f64 each)
+    fov.f64(recording.horizontal_fov);
+    fov.f64(recording.vertical_fov);
+    general_property(out, s.node, "xnFOV", fov);
   }
+  record(out, kNodeStateReady, s.node, 0, Buffer());
+}
 
-  // What an interrupted recorder leaves in place of the counts it patches in when closed.
-  constexpr std::uint32_t kUnknownCount = 0xffffffff;
-  constexpr std::uint64_t kUnknownTime = ~std::uint64_t{0};
-  const bool done = recording.finalized;
-  const auto count = [&](const Stream& s) {
-    return done ? static_cast<std::uint32_t>(s.frames->size()) : kUnknownCount;
-  };
-
-  Buffer out;
-  out.raw("NI10", 4);
-  out.u8(1);   // major
-  out.u8(0);   // minor
-  out.u16(1);  // maintenance: 1.0.1.0 is the first version with 64-bit positions
-  out.u32(0);  // build
-  out.u64(done ? max_timestamp : kUnknownTime);
-  out.u32(static_cast<std::uint32_t>(streams.size()));  // max node id
-
-  for (Stream& s : streams) {
-    Buffer fields;
-    fields.string(s.depth ? "Depth" : "Image");
-    fields.u32(s.depth ? kNodeDepth : kNodeImage);
-    fields.u32(kCodecNone);
-    fields.u32(count(s));
-    fields.u64(done ? s.frames->front().timestamp_us : 0);
-    fields.u64(done ? s.frames->back().timestamp_us : kUnknownTime);
-    s.seek_position_field = out.size() + kRecordHeaderSize + fields.size();
-    fields.u64(0);  // seek-table position, patched once the table is written
-    s.node_added_at = record(out, kNodeAdded, s.node, 0, fields);
-
-    int_property(out, s.node, "oniRequiredFrameSize", pixels * (s.depth ? 2 : 3));
-    int_property(out, s.node, "xnIsGenerating", 1);
-    if (s.depth) int_property(out, s.node, "xnDeviceMaxDepth", recording.max_depth_mm);
-    Buffer mode;  // XnMapOutputMode: x resolution, y resolution, fps (u32 each)
-    mode.u32(static_cast<std::uint32_t>(recording.width));
-    mode.u32(static_cast<std::uint32_t>(recording.height));
-    mode.u32(static_cast<std::uint32_t>(recording.fps));
-    general_property(out, s.node, "xnMapOutputMode", mode);
-    int_property(out, s.node, "xnPixelFormat", s.depth ? kXnGray16 : kXnRgb24);
-    int_property(out, s.node, "oniPixelFormat", s.depth ? kOniDepth1mm : kOniRgb888);
-    // The player hands out no frame of a stream whose cropping state it does not know.
-    int_property(out, s.node, "Cropping", 1);
-    Buffer cropping;  // XnCropping: enabled (u32), x offset, y offset, width, height (u16 each)
-    cropping.u32(0);
-    cropping.u16(0);
-    cropping.u16(0);
-    cropping.u16(static_cast<std::uint16_t>(recording.width));
-    cropping.u16(static_cast<std::uint16_t>(recording.height));
-    general_property(out, s.node, "xnCropping", cropping);
-    if (s.depth) {
-      Buffer fov;  // XnFieldOfView: horizontal, vertical (radians, f64 each)
-      fov.f64(recording.horizontal_fov);
-      fov.f64(recording.vertical_fov);
-      general_property(out, s.node, "xnFOV", fov);
-    }
-    record(out, kNodeStateReady, s.node, 0, Buffer());
-  }
-  for (const Stream& s : streams) {
-    Buffer fields;
-    fields.u32(count(s));
-    fields.u64(done ? s.frames->back().timestamp_us : kUnknownTime);
-    record(out, kNodeDataBegin, s.node, 0, fields);
-  }
-
-  // Frames of all streams in timestamp order, depth first on equal stamps.
+// Frames of all streams in timestamp order, depth first on equal stamps.
+inline void write_frames(Buffer& out, std::vector<Stream>& streams) {
   std::vector<std::size_t> next(streams.size(), 0);
   while (true) {
     int pick = -1;
@@ -281,9 +261,11 @@ inline Status write_oni(const std::filesystem::path& path, const OniRecording& r
     s.last_data_at = at;
     s.data_at.push_back(at);
   }
+}
 
+// A closed recording's NODE_REMOVED and seek table per stream.
+inline void write_seek_tables(Buffer& out, std::vector<Stream>& streams) {
   for (Stream& s : streams) {
-    if (!done) break;
     record(out, kNodeRemoved, s.node, s.node_added_at, Buffer());
     Buffer table;  // entry 0 is empty; then timestamp (u64), configuration (u32), position (u64)
     table.u64(0);
@@ -298,7 +280,45 @@ inline Status write_oni(const std::filesystem::path& path, const OniRecording& r
         record(out, kSeekTable, s.node, 0, Buffer(), table.bytes().data(), table.size());
     out.patch_u64(s.seek_position_field, table_at);
   }
-  if (done) record(out, kEnd, 0, 0, Buffer());
+}
+
+}  // namespace oni_detail
+
+/// Writes `recording` to `path`. kInvalidArgument when a frame's size or the timestamps do not
+/// make a valid recording (sizes must match the resolution, timestamps increase strictly).
+inline Status write_oni(const std::filesystem::path& path, const OniRecording& recording) {
+  using namespace oni_detail;
+  const std::size_t pixels = static_cast<std::size_t>(recording.width) * recording.height;
+  std::vector<Stream> streams;
+  streams.push_back(Stream{1, &recording.depth, true});
+  if (!recording.color.empty()) streams.push_back(Stream{2, &recording.color, false});
+  const Result<std::uint64_t> max_timestamp = check_streams(path, streams, pixels);
+  if (!max_timestamp) return max_timestamp.error();
+  if (recording.depth.empty()) {
+    return make_error(ErrorCode::kInvalidArgument, path.string() + ": no depth frame to write");
+  }
+  const bool done = recording.finalized;
+
+  Buffer out;
+  out.raw("NI10", 4);
+  out.u8(1);   // major
+  out.u8(0);   // minor
+  out.u16(1);  // maintenance: 1.0.1.0 is the first version with 64-bit positions
+  out.u32(0);  // build
+  out.u64(done ? *max_timestamp : kUnknownTime);
+  out.u32(static_cast<std::uint32_t>(streams.size()));  // max node id
+  for (Stream& s : streams) write_node(out, s, recording, done);
+  for (const Stream& s : streams) {
+    Buffer fields;
+    fields.u32(frame_count(s, done));
+    fields.u64(done ? s.frames->back().timestamp_us : kUnknownTime);
+    record(out, kNodeDataBegin, s.node, 0, fields);
+  }
+  write_frames(out, streams);
+  if (done) {
+    write_seek_tables(out, streams);
+    record(out, kEnd, 0, 0, Buffer());
+  }
 
   std::ofstream file(path, std::ios::binary | std::ios::trunc);
   file.write(reinterpret_cast<const char*>(out.bytes().data()),

@@ -58,6 +58,22 @@ std::map<std::string, std::string> tree(const fs::path& dir) {
   return files;
 }
 
+// Ground truth at every depth stamp, equal to the motion's pose.
+void expect_ground_truth_follows(const fs::path& path, const SequenceInfo& info,
+                                 const CameraMotion& motion) {
+  const Result<Trajectory> gt = read_trajectory(path);
+  ASSERT_TRUE(gt.ok()) << gt.error().describe();
+  ASSERT_EQ(gt->size(), 12u);
+  for (std::size_t i = 0; i < gt->size(); ++i) {
+    EXPECT_NEAR((*gt)[i].timestamp, info.depth[i].timestamp, 1e-9);
+    const Eigen::Isometry3d truth = motion.pose_at((*gt)[i].timestamp);
+    EXPECT_LT(((*gt)[i].T_world_camera.translation() - truth.translation()).norm(), 1e-6);
+    EXPECT_LT(
+        Eigen::AngleAxisd(truth.linear().transpose() * (*gt)[i].T_world_camera.linear()).angle(),
+        1e-6);
+  }
+}
+
 TEST_F(SynthSequence, WritesFormatLayoutThatReadsBack) {
   const SynthConfig config = small_config(SceneKind::kRoom);
   const fs::path dir = root_ / "room";
@@ -109,18 +125,7 @@ TEST_F(SynthSequence, WritesFormatLayoutThatReadsBack) {
   EXPECT_LT((mean_error - bias).cwiseAbs().maxCoeff(),
             5.0 * sigma / std::sqrt(static_cast<double>(imu.size())));
 
-  // Ground truth at every depth stamp, equal to the motion's pose.
-  const Result<Trajectory> gt = read_trajectory(dir / "groundtruth.txt");
-  ASSERT_TRUE(gt.ok()) << gt.error().describe();
-  ASSERT_EQ(gt->size(), 12u);
-  for (std::size_t i = 0; i < gt->size(); ++i) {
-    EXPECT_NEAR((*gt)[i].timestamp, info.depth[i].timestamp, 1e-9);
-    const Eigen::Isometry3d truth = motion.pose_at((*gt)[i].timestamp);
-    EXPECT_LT(((*gt)[i].T_world_camera.translation() - truth.translation()).norm(), 1e-6);
-    EXPECT_LT(
-        Eigen::AngleAxisd(truth.linear().transpose() * (*gt)[i].T_world_camera.linear()).angle(),
-        1e-6);
-  }
+  expect_ground_truth_follows(dir / "groundtruth.txt", info, motion);
 
   // The images on disk are the in-memory renders at those poses.
   Result<Frame> frame = reader.frame(3);
