@@ -96,6 +96,8 @@ struct RunResult {
   double switch_time = NAN;              // s after start when the hand-eye estimate was used
   double drift_pos_mm = NAN, drift_rot_deg = NAN;  // at the end of the dead-reckoned stretch
   std::map<int, double> drift_pos_at_mm;           // ms into the stretch -> position error (mm)
+  double check_deg = NAN;   // a given mounting's angle from the hand-eye check, at the end
+  double flagged_at = NAN;  // s after start when the given mounting was first flagged
 };
 
 RunResult run(const synth::CameraMotion& motion, std::uint64_t seed, double seconds,
@@ -140,6 +142,8 @@ RunResult run(const synth::CameraMotion& motion, std::uint64_t seed, double seco
     const double elapsed = tb - t0;
     const InertialStatus st = nav.status();
     if (st.R_camera_imu_estimated && std::isnan(out.switch_time)) out.switch_time = elapsed;
+    if (st.R_camera_imu_disagrees && std::isnan(out.flagged_at)) out.flagged_at = elapsed;
+    if (st.R_camera_imu_disagreement_deg > 0) out.check_deg = st.R_camera_imu_disagreement_deg;
     if (std::abs(elapsed - std::round(elapsed)) < 0.5 / kFps) {
       const int second = static_cast<int>(std::round(elapsed));
       out.bias_error[second] = (st.gyro_bias - bias.gyro).norm();
@@ -287,6 +291,9 @@ struct Collected {
   std::map<TranslationModel, std::map<int, std::vector<double>>> drift_pos_at;
   std::vector<std::map<int, double>> bias_runs, hand_eye_runs, hand_eye_bias_runs;
   std::vector<double> switch_times;
+  // The check of a given mounting: the true one (angle at the end, s when wrongly flagged) and
+  // the identity given for the phone's 180 deg mounting (s when flagged).
+  std::map<std::string, std::vector<double>> true_check_deg, true_flagged_at, identity_flagged_at;
 };
 
 // One scene and seed: every translation model (and the wall's dead reckoning), the frames
@@ -302,7 +309,11 @@ void collect_seed(synth::SceneKind kind, std::uint64_t seed, double seconds,
     const RunResult r = run(motion, seed, seconds, base_config(T_ci, model), samples, bias,
                             T_ci.linear(), std::nullopt);
     c.errors[synth::to_string(kind)][model].append(r.errors);
-    if (model == TranslationModel::kNone) c.bias_runs.push_back(r.bias_error);
+    if (model == TranslationModel::kNone) {
+      c.bias_runs.push_back(r.bias_error);
+      c.true_check_deg[synth::to_string(kind)].push_back(r.check_deg);
+      c.true_flagged_at[synth::to_string(kind)].push_back(r.flagged_at);
+    }
     if (kind == synth::SceneKind::kWall) {
       const RunResult d = run(motion, seed, seconds, base_config(T_ci, model), samples, bias,
                               T_ci.linear(), motion.wall_stretch());
@@ -326,6 +337,35 @@ void collect_seed(synth::SceneKind kind, std::uint64_t seed, double seconds,
   c.hand_eye_runs.push_back(h.hand_eye_error);
   c.hand_eye_bias_runs.push_back(h.bias_error);
   c.switch_times.push_back(std::isnan(h.switch_time) ? 1e9 : h.switch_time);
+  const InertialConfig wrong =
+      base_config(Eigen::Isometry3d::Identity(), TranslationModel::kConstantVelocity);
+  c.identity_flagged_at[synth::to_string(kind)].push_back(
+      run(motion, seed, seconds, wrong, samples, bias, T_ci.linear(), std::nullopt).flagged_at);
+}
+
+void print_mounting_check(const Collected& c) {
+  const auto finite = [](const std::vector<double>& values) {
+    std::vector<double> out;
+    for (const double v : values)
+      if (!std::isnan(v)) out.push_back(v);
+    return out;
+  };
+  std::printf(
+      "\nA given mounting checked by the hand-eye estimate (mounting_check_deg %.1f), per scene: "
+      "the true mounting (runs flagged; its angle from the check, median / max deg, runs "
+      "checked) and the identity, 180 deg off (runs flagged; s until flagged, median / max)\n\n"
+      "| scene | true: flagged | true: angle deg | true: checked | identity: flagged | "
+      "identity: s |\n| --- | --- | --- | --- | --- | --- |\n",
+      InertialConfig{}.mounting_check_deg);
+  for (const auto& [scene, identity] : c.identity_flagged_at) {
+    const std::vector<double> checked = finite(c.true_check_deg.at(scene));
+    const std::vector<double> wrong = finite(identity);
+    std::printf("| %s | %zu of %zu | %.2f / %.2f | %zu | %zu of %zu | %.1f / %.1f |\n",
+                scene.c_str(), finite(c.true_flagged_at.at(scene)).size(),
+                c.true_flagged_at.at(scene).size(), percentile(checked, 0.5),
+                percentile(checked, 1.0), checked.size(), wrong.size(), identity.size(),
+                percentile(wrong, 0.5), percentile(wrong, 1.0));
+  }
 }
 
 void print_dead_reckoning(const Collected& c) {
@@ -356,18 +396,23 @@ void print_dead_reckoning(const Collected& c) {
 
 int main(int argc, char** argv) {
   int seeds = 12;
+  std::uint64_t first_seed = 301;  // none used by the tests
   double seconds = 30.0;
   std::filesystem::path tum = "../shared/datasets/tum_fr1_xyz";  // from the repository root
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--seeds" && i + 1 < argc) {
       seeds = std::atoi(argv[++i]);
+    } else if (a == "--first-seed" && i + 1 < argc) {
+      first_seed = std::strtoull(argv[++i], nullptr, 10);
     } else if (a == "--seconds" && i + 1 < argc) {
       seconds = std::atof(argv[++i]);
     } else if (a == "--tum" && i + 1 < argc) {
       tum = argv[++i];
     } else {
-      std::fprintf(stderr, "usage: inertial_models [--seeds N] [--seconds S] [--tum DIR]\n");
+      std::fprintf(
+          stderr,
+          "usage: inertial_models [--seeds N] [--first-seed N] [--seconds S] [--tum DIR]\n");
       return 2;
     }
   }
@@ -379,8 +424,8 @@ int main(int argc, char** argv) {
   Collected c;
   for (const synth::SceneKind kind :
        {synth::SceneKind::kRoom, synth::SceneKind::kWall, synth::SceneKind::kFast}) {
-    for (int s = 0; s < seeds; ++s)  // seeds 301...: none used by the tests
-      collect_seed(kind, 301 + static_cast<std::uint64_t>(s), seconds, imu, c);
+    for (int s = 0; s < seeds; ++s)
+      collect_seed(kind, first_seed + static_cast<std::uint64_t>(s), seconds, imu, c);
   }
 
   std::printf(
@@ -397,6 +442,7 @@ int main(int argc, char** argv) {
       percentile(c.switch_times, 0.5), percentile(c.switch_times, 0.95),
       static_cast<int>(std::count(c.switch_times.begin(), c.switch_times.end(), 1e9)),
       c.switch_times.size());
+  print_mounting_check(c);
   if (std::filesystem::exists(tum)) {
     run_tum(tum);
   } else {

@@ -94,10 +94,11 @@ struct InertialConfig {
   double hand_eye_max_sigma_deg = 1.0;
   /// Pairs kept for the hand-eye solve (the oldest are dropped): ~30 s at 30 Hz.
   int hand_eye_max_pairs = 900;
-  /// deg: a given mounting (T_camera_imu_known) is checked against the hand-eye estimate, and
-  /// reported as disagreeing (InertialStatus::R_camera_imu_disagrees) once a confident estimate
-  /// is farther than this and 3 sigma from it. Below 5 deg a mounting error costs at most 0.26 deg
-  /// per 3 deg frame rotation, inside ICP's reach; a wrongly given axis convention is 90-180 deg.
+  /// deg: a given mounting (T_camera_imu_known) is checked against the hand-eye estimate (once
+  /// its sigma is below this), and reported as disagreeing (InertialStatus::
+  /// R_camera_imu_disagrees) when the estimate is farther than this and 3 sigma from it. Below
+  /// 5 deg a mounting error costs at most 0.26 deg per 3 deg frame rotation, inside ICP's reach;
+  /// a wrongly given axis convention is 90-180 deg (bench/README.md, "The given mounting").
   double mounting_check_deg = 5.0;
 
   /// m, 1 sigma: error of a reliable tracked camera position, used to weigh tracked velocity.
@@ -165,8 +166,8 @@ struct InertialStatus {
   /// before two axes were excited); 0 when the rotation was given.
   double R_camera_imu_sigma_deg = 0;
   int hand_eye_pairs = 0;
-  /// deg: angle between a given mounting rotation and a confident hand-eye estimate of it; 0
-  /// while the rotation is estimated or no confident estimate exists yet.
+  /// deg: angle between a given mounting rotation and the hand-eye estimate checking it; 0
+  /// while the rotation is estimated or no estimate is good to mounting_check_deg yet.
   double R_camera_imu_disagreement_deg = 0;
   /// The given mounting disagrees with the motion (InertialConfig::mounting_check_deg): its axes
   /// are probably wrong. The given rotation stays in use; the estimate is in R_camera_imu_check.

@@ -116,7 +116,7 @@ struct InertialNavigator::State {
   Eigen::Vector3d lever_arm;  // camera frame, m (translation of T_camera_imu)
   bool mounting_trusted;
   double hand_eye_sigma;  // rad
-  /// A confident hand-eye estimate of a given mounting (the check), and its angle from it (rad).
+  /// The hand-eye estimate checking a given mounting, and its angle from it (rad).
   std::optional<Eigen::Matrix3d> R_camera_imu_check;
   double check_angle = 0;
   double check_sigma = 0;  // rad
@@ -137,9 +137,9 @@ void InertialNavigator::State::observe_mounting(const Eigen::Matrix3d& R_camera_
   pairs_since_check = 0;
   const inertial::HandEyeCalibrator::Solution sol = hand_eye.solve(bias.bias());
   if (config.T_camera_imu_known) {
-    // A given mounting stays in use; a confident estimate only checks it, once per
-    // kCheckEveryPairs reliable pairs (the solve's cost is not needed every frame).
-    if (sol.sigma * 180.0 / std::numbers::pi > config.hand_eye_max_sigma_deg) return;
+    // A given mounting stays in use; an estimate good to mounting_check_deg only checks it,
+    // once per kCheckEveryPairs reliable pairs (the solve's cost is not needed every frame).
+    if (sol.sigma * 180.0 / std::numbers::pi > config.mounting_check_deg) return;
     R_camera_imu_check = sol.R_camera_imu;
     check_angle = Eigen::AngleAxisd(R_camera_imu.transpose() * sol.R_camera_imu).angle();
     check_sigma = sol.sigma;
