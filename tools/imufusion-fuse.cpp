@@ -23,6 +23,7 @@
 #include <utility>
 #include <vector>
 
+#include "cli_common.hpp"
 #include "imufusion/mesh.hpp"
 #include "imufusion/mesh_eval.hpp"
 #include "imufusion/presets.hpp"
@@ -39,6 +40,8 @@ namespace fs = std::filesystem;
 using namespace imufusion;
 
 namespace {
+
+using tools::fail;
 
 struct Options {
   fs::path sequence;
@@ -97,11 +100,6 @@ int parse(int argc, char** argv, Options& opt) {
     }
   }
   return opt.sequence.empty() ? usage(std::cerr, 2) : -1;
-}
-
-int fail(const std::string& message) {
-  std::cerr << "error: " << message << "\n";
-  return 1;
 }
 
 double median(std::vector<double> v) {

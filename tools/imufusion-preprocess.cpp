@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "cli_common.hpp"
 #include "demo_sequence.hpp"
 #include "imufusion/device.hpp"
 #include "imufusion/preprocess.hpp"
@@ -26,6 +27,9 @@ namespace fs = std::filesystem;
 using namespace imufusion;
 
 namespace {
+
+using tools::fail;
+using tools::print_devices;
 
 struct Options {
   std::string sequence;
@@ -101,20 +105,6 @@ int parse(int argc, char** argv, Options& opt) {
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v.empty() ? 0.0 : v[v.size() / 2];
-}
-
-int fail(const std::string& message) {
-  std::cerr << "error: " << message << "\n";
-  return 1;
-}
-
-int print_devices() {
-  auto devices = list_devices();
-  if (!devices) return fail(devices.error().describe());
-  for (const DeviceInfo& d : *devices)
-    std::cout << "[" << d.index << "] " << d.name << " (" << to_string(d.type) << ", " << d.driver
-              << ", " << d.device_local_bytes / (1024 * 1024) << " MiB)\n";
-  return 0;
 }
 
 // The sequence to preprocess (the demo when none is given), with intrinsics and frames.

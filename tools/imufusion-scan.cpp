@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "cli_common.hpp"
 #include "cli_numbers.hpp"
 #include "demo_sequence.hpp"
 #include "frame_step.hpp"
@@ -52,6 +53,9 @@ using namespace imufusion;
 
 namespace {
 
+using tools::fail;
+using tools::print_devices;
+
 using tools::ScanOptions;
 using tools::ScanRun;
 
@@ -59,19 +63,6 @@ using tools::ScanRun;
 // after its current frame and writes every output, as at the end of the input.
 volatile std::sig_atomic_t g_interrupted = 0;
 void on_interrupt(int signal) { g_interrupted = signal; }
-
-int fail(const std::string& message) {
-  std::cerr << "error: " << message << "\n";
-  return 1;
-}
-
-int print_devices() {
-  auto devices = list_devices();
-  if (!devices) return fail(devices.error().describe());
-  for (const DeviceInfo& d : *devices)
-    std::printf("%d: %s (%s, %s)\n", d.index, d.name.c_str(), to_string(d.type), d.driver.c_str());
-  return 0;
-}
 
 // The status line: a progress bar when the frame count is known (0: a camera), the tracking
 // state and the ICP quality of the latest frame.
