@@ -2,6 +2,7 @@
 // Vulkan compute devices as a user sees them: listing and choosing one. No Vulkan types here.
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,21 @@ struct DeviceInfo {
   bool timestamps = false;               // whether per-kernel GPU timings are available
 };
 
+/// A Vulkan device the app already has, for the library to run on instead of creating its own.
+/// Each handle is the app's Vulkan handle cast to void* (VkInstance, VkPhysicalDevice, VkDevice
+/// and VkQueue are pointers): the library creates its buffers, pipelines and command pools on the
+/// device and destroys only those; the app keeps the device alive until every object made with
+/// it is gone, and does not submit to `queue` from another thread while the library runs (give
+/// the library a queue of its own where the family has several). Vulkan 1.1; the queue's family
+/// must support compute.
+struct ExternalDevice {
+  void* instance = nullptr;         // VkInstance the physical device came from
+  void* physical_device = nullptr;  // VkPhysicalDevice
+  void* device = nullptr;           // VkDevice, created with `queue_family` among its queues
+  void* queue = nullptr;            // VkQueue of queue_family
+  std::uint32_t queue_family = 0;
+};
+
 /// How to pick and set up a device.
 struct DeviceOptions {
   /// Empty: the IMUFUSION_DEVICE environment variable if set, else the first discrete GPU, then
@@ -32,6 +48,9 @@ struct DeviceOptions {
   /// Enable the Khronos validation layer (also when IMUFUSION_VALIDATION=1). Validation errors are
   /// counted by the context; tests fail on any.
   bool validation = false;
+  /// Run on the app's own device (selector and validation are then the app's business); empty:
+  /// the library creates its own instance and device.
+  std::optional<ExternalDevice> external;
 };
 
 /// The GPU time of one kernel dispatch, from timestamp queries (milliseconds). Where the device

@@ -330,6 +330,7 @@ Result<std::shared_ptr<Context>> Context::create(const DeviceOptions& options) {
 }
 
 Status Context::init(const DeviceOptions& options) {
+  if (options.external) return adopt(*options.external);
   const bool validation = use_validation(options);
   const bool debug_utils =
       validation && instance_extension_available(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
@@ -347,21 +348,73 @@ Status Context::init(const DeviceOptions& options) {
   if (!devices) return devices.error();
   physical_device_ = (*devices)[static_cast<std::size_t>(*chosen)];
   info_ = describe(physical_device_, *chosen);
-
-  VkPhysicalDeviceProperties props{};
-  vkGetPhysicalDeviceProperties(physical_device_, &props);
-  limits_ = props.limits;
-  if (info_.timestamps) timestamp_period_ns_ = props.limits.timestampPeriod;
-  vkGetPhysicalDeviceMemoryProperties(physical_device_, &memory_);
-  unified_memory_ = has_unified_memory(memory_, info_.device_local_bytes);
-
   queue_family_ = static_cast<std::uint32_t>(compute_queue_family(physical_device_));
+  read_properties();
   IMUFUSION_RETURN_IF_ERROR(create_device(physical_device_, queue_family_, info_.name, device_));
   vkGetDeviceQueue(device_, queue_family_, 0, &queue_);
   return create_one_shot_pool(device_, queue_family_, one_shot_pool_);
 }
 
+// Limits, timestamps and memory of the chosen physical device and queue family.
+void Context::read_properties() {
+  VkPhysicalDeviceProperties props{};
+  vkGetPhysicalDeviceProperties(physical_device_, &props);
+  limits_ = props.limits;
+  std::uint32_t count = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(physical_device_, &count, nullptr);
+  std::vector<VkQueueFamilyProperties> families(count);
+  vkGetPhysicalDeviceQueueFamilyProperties(physical_device_, &count, families.data());
+  info_.timestamps = queue_family_ < count && families[queue_family_].timestampValidBits > 0 &&
+                     props.limits.timestampPeriod > 0;
+  timestamp_period_ns_ = info_.timestamps ? props.limits.timestampPeriod : 0.0;
+  vkGetPhysicalDeviceMemoryProperties(physical_device_, &memory_);
+  unified_memory_ = has_unified_memory(memory_, info_.device_local_bytes);
+}
+
+// The app's device (DeviceOptions::external): checked, described, never destroyed here.
+Status Context::adopt(const ExternalDevice& external) {
+  const auto missing = [](const char* what) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      std::string("DeviceOptions::external: ") + what + " is null");
+  };
+  if (external.instance == nullptr) return missing("instance");
+  if (external.physical_device == nullptr) return missing("physical_device");
+  if (external.device == nullptr) return missing("device");
+  if (external.queue == nullptr) return missing("queue");
+  owns_device_ = false;
+  physical_device_ = static_cast<VkPhysicalDevice>(external.physical_device);
+  std::uint32_t count = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(physical_device_, &count, nullptr);
+  std::vector<VkQueueFamilyProperties> families(count);
+  vkGetPhysicalDeviceQueueFamilyProperties(physical_device_, &count, families.data());
+  if (external.queue_family >= count ||
+      (families[external.queue_family].queueFlags & VK_QUEUE_COMPUTE_BIT) == 0) {
+    return make_error(ErrorCode::kInvalidArgument, "DeviceOptions::external: queue family " +
+                                                       std::to_string(external.queue_family) +
+                                                       " of " + std::to_string(count) +
+                                                       " has no compute");
+  }
+  // Its position among the app's instance's devices, as list_devices() numbers them.
+  int index = -1;
+  auto devices = physical_devices(static_cast<VkInstance>(external.instance));
+  if (devices) {
+    for (std::size_t i = 0; i < devices->size(); ++i)
+      if ((*devices)[i] == physical_device_) index = static_cast<int>(i);
+  }
+  info_ = describe(physical_device_, index);
+  queue_family_ = external.queue_family;
+  read_properties();
+  device_ = static_cast<VkDevice>(external.device);
+  queue_ = static_cast<VkQueue>(external.queue);
+  return create_one_shot_pool(device_, queue_family_, one_shot_pool_);
+}
+
 Context::~Context() {
+  if (!owns_device_) {  // the app's device: only what the library made on it goes
+    if (queue_ != VK_NULL_HANDLE) vkQueueWaitIdle(queue_);
+    if (one_shot_pool_ != VK_NULL_HANDLE) vkDestroyCommandPool(device_, one_shot_pool_, nullptr);
+    return;
+  }
   if (device_ != VK_NULL_HANDLE) {
     vkDeviceWaitIdle(device_);
     if (one_shot_pool_ != VK_NULL_HANDLE) vkDestroyCommandPool(device_, one_shot_pool_, nullptr);

@@ -66,10 +66,13 @@ class Context {
  private:
   Context() = default;
   Status init(const DeviceOptions& options);
+  Status adopt(const ExternalDevice& external);
+  void read_properties();
   static VKAPI_ATTR VkBool32 VKAPI_CALL on_validation_message(
       VkDebugUtilsMessageSeverityFlagBitsEXT severity, VkDebugUtilsMessageTypeFlagsEXT types,
       const VkDebugUtilsMessengerCallbackDataEXT* data, void* user);
 
+  bool owns_device_ = true;  // false on an app's device (DeviceOptions::external)
   VkInstance instance_ = VK_NULL_HANDLE;
   VkDebugUtilsMessengerEXT messenger_ = VK_NULL_HANDLE;
   VkPhysicalDevice physical_device_ = VK_NULL_HANDLE;
