@@ -3,6 +3,10 @@
 
 #include <pybind11/pybind11.h>
 
+namespace imufusion {
+class Reconstructor;
+}
+
 namespace imufusion::python {
 
 void bind_types(pybind11::module_& m);     // types.cpp: enums, Intrinsics, ImuSample
@@ -10,5 +14,7 @@ void bind_config(pybind11::module_& m);    // config.cpp: ReconstructorConfig an
 void bind_scanner(pybind11::module_& m);   // scanner.cpp: Reconstructor, FrameResult, raycasts
 void bind_sequence(pybind11::module_& m);  // sequence.cpp: SequenceReader, SequenceWriter
 void bind_mesh_io(pybind11::module_& m);   // mesh_io.cpp: Mesh, trajectories, synthesize
+// mesh_changes.cpp: Reconstructor.extract_mesh_changes, the incremental mesh
+void bind_mesh_changes(pybind11::class_<Reconstructor>& c);
 
 }  // namespace imufusion::python

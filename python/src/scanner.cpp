@@ -176,6 +176,7 @@ void bind_scanner(py::module_& m) {
       .def_property_readonly("memory_bytes", &Reconstructor::memory_bytes);
   bind_frames(c);
   bind_outputs(c);
+  bind_mesh_changes(c);
 }
 
 }  // namespace imufusion::python

@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <span>
 #include <vector>
 
 #include "imufusion/result.hpp"
@@ -45,6 +46,29 @@ struct MeshOptions {
 /// kInvalidArgument for duplicate block coordinates, a non-positive voxel size or min_weight,
 /// or a block coordinate beyond +-2^15.
 Result<Mesh> extract_mesh(const HostVolume& volume, const MeshOptions& options = {});
+
+/// One block's piece of the mesh: the triangles of the cells whose lower corner lies in the block
+/// (voxels 8 b .. 8 b + 7 on each axis), with vertices of its own (not welded to its neighbours').
+struct BlockMesh {
+  Eigen::Vector3i block = Eigen::Vector3i::Zero();  // block coordinate (volume.hpp)
+  Mesh mesh;
+};
+
+/// The pieces of the mesh that changed since the previous update: a viewer replaces the pieces of
+/// the `changed` blocks and drops those of the `removed` ones.
+struct MeshUpdate {
+  std::vector<BlockMesh> changed;        // non-empty pieces, in (z, y, x) block order
+  std::vector<Eigen::Vector3i> removed;  // blocks whose piece became empty, in (z, y, x) order
+};
+
+/// extract_mesh() of the listed blocks only: one piece per listed block, in the order given
+/// (empty for a block that is not in the volume or holds no surface). A block's cells read its 26
+/// neighbours' voxels, so `volume` must hold those that are allocated. Together, the pieces of all
+/// the volume's blocks hold the triangles of extract_mesh(), with the same vertex positions,
+/// normals and colours. Errors as extract_mesh(), and for a listed block beyond +-2^15.
+Result<std::vector<BlockMesh>> extract_block_meshes(const HostVolume& volume,
+                                                    std::span<const Eigen::Vector3i> blocks,
+                                                    const MeshOptions& options = {});
 
 /// Binary little-endian PLY: vertex x y z nx ny nz (float) [red green blue (uchar) when the mesh
 /// has colours], face vertex_indices (list uchar uint). Written atomically (a temporary file in

@@ -207,6 +207,13 @@ class Reconstructor {
 
   /// Marching cubes over the allocated blocks (welded vertices, normals, colours).
   Result<Mesh> extract_mesh(const MeshOptions& options = {}) const;
+  /// The mesh as pieces per block (extract_block_meshes() in mesh.hpp), only those that changed
+  /// since the previous call: the blocks that fusion touched since then and their neighbours
+  /// (whose cells read their voxels), and the blocks whose piece became empty. Everything on the
+  /// first call, after reset() and when `options` change; nothing when nothing was fused. The
+  /// pieces a viewer holds together hold extract_mesh()'s triangles. Downloads the hash table
+  /// (12 bytes per slot) and the voxels of the changed blocks and their neighbours.
+  Result<MeshUpdate> extract_mesh_changes(const MeshOptions& options = {});
   /// The model seen from a pose (default: the depth camera's intrinsics and depth range).
   Result<RaycastImages> raycast(const Eigen::Isometry3d& T_world_camera,
                                 std::optional<Intrinsics> intrinsics = std::nullopt,

@@ -119,6 +119,7 @@ Status TsdfVolume::reset() {
   IMUFUSION_RETURN_IF_ERROR(tsdf_weight_.clear());
   IMUFUSION_RETURN_IF_ERROR(voxel_colors_.clear());
   frame_stamp_ = 0;
+  ++epoch_;
   allocated_counter_ = 0;
   return {};
 }
@@ -155,6 +156,7 @@ Status TsdfVolume::record_integrate(CommandSequence& seq, const Buffer& depth, c
   if (frame_stamp_ == 0) {  // wrapped after 2^32 frames: old stamps could collide
     IMUFUSION_RETURN_IF_ERROR(stamps_.clear());
     frame_stamp_ = 1;
+    ++epoch_;
   }
 
   layout::VolumeAllocateParams ap{};
@@ -271,41 +273,77 @@ Result<std::vector<std::uint32_t>> TsdfVolume::last_raycast_steps() const {
   return steps_.download_as<std::uint32_t>(raycast_pixels_);
 }
 
-Result<HostVolume> TsdfVolume::snapshot() const {
+Result<std::vector<TsdfVolume::BlockEntry>> TsdfVolume::block_entries() const {
   auto keys = keys_.download_as<std::uint32_t>(config_.hash_slots);
   if (!keys) return keys.error();
   auto values = values_.download_as<std::uint32_t>(config_.hash_slots);
   if (!values) return values.error();
-  const std::size_t voxel_count = std::size_t{allocated_blocks()} * kBlockVoxels;
-  auto tsdf_weight = tsdf_weight_.download_as<std::uint32_t>(std::max<std::size_t>(voxel_count, 1));
-  if (!tsdf_weight) return tsdf_weight.error();
-  auto colors = voxel_colors_.download_as<std::uint32_t>(std::max<std::size_t>(voxel_count, 1));
-  if (!colors) return colors.error();
-  HostVolume host;
-  host.voxel_size = config_.voxel_size;
-  host.truncation = config_.truncation();
+  auto stamps = stamps_.download_as<std::uint32_t>(config_.hash_slots);
+  if (!stamps) return stamps.error();
+  std::vector<BlockEntry> entries;
   for (std::size_t slot = 0; slot < keys->size(); ++slot) {
     const std::uint32_t key = (*keys)[slot];
     const std::uint32_t block = (*values)[slot];
     if (key == VOLUME_EMPTY_KEY || block == VOLUME_NO_BLOCK || block >= allocated_blocks())
       continue;
-    VolumeBlock b;
-    b.coord = Eigen::Vector3i(static_cast<int>(key & 0x7FFu) - 1024,
-                              static_cast<int>((key >> 11) & 0x7FFu) - 1024,
-                              static_cast<int>(key >> 22) - 512);
-    for (int v = 0; v < kBlockVoxels; ++v) {
-      const std::size_t index = std::size_t{block} * kBlockVoxels + static_cast<std::size_t>(v);
-      const std::uint32_t word0 = (*tsdf_weight)[index], word1 = (*colors)[index];
-      Voxel& voxel = b.voxels[static_cast<std::size_t>(v)];
-      voxel.tsdf = static_cast<float>(static_cast<std::int16_t>(word0 & 0xFFFFu)) / 32767.0f;
-      voxel.weight = static_cast<float>(word0 >> 16);
-      voxel.color = {static_cast<std::uint8_t>(word1 & 0xFF),
-                     static_cast<std::uint8_t>((word1 >> 8) & 0xFF),
-                     static_cast<std::uint8_t>((word1 >> 16) & 0xFF)};
+    BlockEntry entry;
+    entry.coord = Eigen::Vector3i(static_cast<int>(key & 0x7FFu) - 1024,
+                                  static_cast<int>((key >> 11) & 0x7FFu) - 1024,
+                                  static_cast<int>(key >> 22) - 512);
+    entry.pool = block;
+    entry.stamp = (*stamps)[slot];
+    entries.push_back(entry);
+  }
+  return entries;
+}
+
+namespace {
+
+// A block's voxels from its packed words: tsdf (snorm16) and weight, RGB colour.
+void unpack_block(const std::uint32_t* tsdf_weight, const std::uint32_t* colors, VolumeBlock& b) {
+  for (std::size_t v = 0; v < kBlockVoxels; ++v) {
+    const std::uint32_t word0 = tsdf_weight[v], word1 = colors[v];
+    Voxel& voxel = b.voxels[v];
+    voxel.tsdf = static_cast<float>(static_cast<std::int16_t>(word0 & 0xFFFFu)) / 32767.0f;
+    voxel.weight = static_cast<float>(word0 >> 16);
+    voxel.color = {static_cast<std::uint8_t>(word1 & 0xFF),
+                   static_cast<std::uint8_t>((word1 >> 8) & 0xFF),
+                   static_cast<std::uint8_t>((word1 >> 16) & 0xFF)};
+  }
+}
+
+}  // namespace
+
+Result<HostVolume> TsdfVolume::snapshot_blocks(std::vector<BlockEntry> blocks) const {
+  std::sort(blocks.begin(), blocks.end(),
+            [](const BlockEntry& a, const BlockEntry& b) { return a.pool < b.pool; });
+  HostVolume host;
+  host.voxel_size = config_.voxel_size;
+  host.truncation = config_.truncation();
+  host.blocks.resize(blocks.size());
+  std::vector<std::uint32_t> tsdf_weight, colors;
+  for (std::size_t first = 0, last = 0; first < blocks.size(); first = last) {
+    last = first + 1;
+    while (last < blocks.size() && blocks[last].pool == blocks[last - 1].pool + 1) ++last;
+    const std::size_t words = (last - first) * kBlockVoxels;
+    const VkDeviceSize offset = VkDeviceSize{blocks[first].pool} * kBlockVoxels * 4;
+    tsdf_weight.resize(words);
+    colors.resize(words);
+    IMUFUSION_RETURN_IF_ERROR(tsdf_weight_.download(tsdf_weight.data(), words * 4, offset));
+    IMUFUSION_RETURN_IF_ERROR(voxel_colors_.download(colors.data(), words * 4, offset));
+    for (std::size_t b = first; b < last; ++b) {
+      const std::size_t at = (b - first) * kBlockVoxels;
+      host.blocks[b].coord = blocks[b].coord;
+      unpack_block(tsdf_weight.data() + at, colors.data() + at, host.blocks[b]);
     }
-    host.blocks.push_back(std::move(b));
   }
   return host;
+}
+
+Result<HostVolume> TsdfVolume::snapshot() const {
+  auto entries = block_entries();
+  if (!entries) return entries.error();
+  return snapshot_blocks(std::move(*entries));
 }
 
 }  // namespace imufusion::gpu

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <memory>
 #include <optional>
+#include <vector>
 
 #include "imufusion/fusion.hpp"
 #include "imufusion/volume.hpp"
@@ -52,9 +53,26 @@ class TsdfVolume {
   /// March steps of each ray (row-major pixels) of the last raycast: where the time goes.
   Result<std::vector<std::uint32_t>> last_raycast_steps() const;
 
+  /// An allocated block of the hash table: its coordinate, pool index and the frame stamp of the
+  /// last integration that touched it (frame_stamp() then).
+  struct BlockEntry {
+    Eigen::Vector3i coord = Eigen::Vector3i::Zero();
+    std::uint32_t pool = 0;
+    std::uint32_t stamp = 0;
+  };
+  /// The allocated blocks, in slot order (downloads the hash table, 12 bytes per slot).
+  Result<std::vector<BlockEntry>> block_entries() const;
+  /// A snapshot of the listed blocks only: their voxels are downloaded in runs of consecutive pool
+  /// indices, one transfer per run.
+  Result<HostVolume> snapshot_blocks(std::vector<BlockEntry> blocks) const;
   Result<HostVolume> snapshot() const;
   /// Empties the volume.
   Status reset();
+
+  /// The stamp of the last integration recorded (0 after reset()); blocks it touched carry it.
+  std::uint32_t frame_stamp() const { return frame_stamp_; }
+  /// Counts reset() calls and stamp wraps: stamps of different epochs are not comparable.
+  std::uint64_t epoch() const { return epoch_; }
 
   const VolumeConfig& config() const { return config_; }
   std::uint32_t allocated_blocks() const {
@@ -79,6 +97,7 @@ class TsdfVolume {
   std::size_t raycast_pixels_ = 0;
   CommandSequence seq_;
   std::uint32_t frame_stamp_ = 0;
+  std::uint64_t epoch_ = 0;
   // VOLUME_COUNTER_ALLOCATED as last read: blocks asked for, which may pass the capacity.
   std::uint32_t allocated_counter_ = 0;
 };

@@ -10,6 +10,7 @@
 #include <thread>
 #include <tuple>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "imufusion/mesh.hpp"
@@ -77,7 +78,7 @@ class EdgeVertexMap {
   std::vector<std::uint32_t> values_;
 };
 
-struct BlockMesh {
+struct BlockPart {
   // Per vertex: its lattice edge, with kSharedBit set when cells of other blocks may use the
   // edge too (its lower end lies on the block's lower faces or in the next block).
   std::vector<std::uint64_t> edge_keys;
@@ -93,7 +94,7 @@ class Mesher {
   Mesher(const HostVolume& volume, const MeshOptions& options, const BlockIndex& index)
       : volume_(volume), options_(options), index_(index) {}
 
-  void mesh_block(const VolumeBlock& block, BlockMesh& out) {
+  void mesh_block(const VolumeBlock& block, BlockPart& out) {
     find_neighbours(block);
     // Cell corners first: most blocks hold no zero crossing (they lie within the truncation band
     // on one side of the surface), and those need neither the cells nor the outer layers.
@@ -184,7 +185,7 @@ class Mesher {
     return g;
   }
 
-  void mesh_cell(const Eigen::Vector3i& origin, int i, int j, int k, BlockMesh& out) {
+  void mesh_cell(const Eigen::Vector3i& origin, int i, int j, int k, BlockPart& out) {
     int cube = 0;
     for (int c = 0; c < 8; ++c) {
       const auto& corner = mesh::kCorner[c];
@@ -204,7 +205,7 @@ class Mesher {
   // The vertex on edge `e` of cell (i, j, k), created on first use. Computed from the edge's
   // lower end toward its upper end, so every block that meets the edge computes the same bits.
   std::uint32_t edge_vertex(const Eigen::Vector3i& origin, int i, int j, int k, int e,
-                            BlockMesh& out) {
+                            BlockPart& out) {
     const auto& c0 = mesh::kCorner[mesh::kEdgeCorners[e][0]];
     const auto& c1 = mesh::kCorner[mesh::kEdgeCorners[e][1]];
     int axis = 0;
@@ -298,32 +299,44 @@ Result<BlockIndex> index_blocks(const HostVolume& volume) {
   return index;
 }
 
-// Positions of the blocks in (z, y, x) coordinate order, so that the welded output does not
-// depend on the snapshot order.
-std::vector<std::size_t> coordinate_order(const HostVolume& volume) {
-  std::vector<std::size_t> order(volume.blocks.size());
-  for (std::size_t b = 0; b < order.size(); ++b) order[b] = b;
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    const Eigen::Vector3i& ca = volume.blocks[a].coord;
-    const Eigen::Vector3i& cb = volume.blocks[b].coord;
-    return std::tie(ca.z(), ca.y(), ca.x()) < std::tie(cb.z(), cb.y(), cb.x());
+// The blocks in (z, y, x) coordinate order, so that the welded output does not depend on the
+// snapshot order.
+std::vector<const VolumeBlock*> coordinate_order(const HostVolume& volume) {
+  std::vector<const VolumeBlock*> order;
+  order.reserve(volume.blocks.size());
+  for (const VolumeBlock& block : volume.blocks) order.push_back(&block);
+  std::sort(order.begin(), order.end(), [](const VolumeBlock* a, const VolumeBlock* b) {
+    return std::tie(a->coord.z(), a->coord.y(), a->coord.x()) <
+           std::tie(b->coord.z(), b->coord.y(), b->coord.x());
   });
   return order;
 }
 
-// The mesh of each block, in `order`, meshed by options.threads threads (0: one per core).
-std::vector<BlockMesh> mesh_blocks(const HostVolume& volume, const MeshOptions& options,
-                                   const BlockIndex& index, const std::vector<std::size_t>& order) {
-  std::vector<BlockMesh> parts(order.size());
+// A block's part as a mesh of its own (its vertices are already unique within the block).
+Mesh part_mesh(BlockPart& part, bool colors) {
+  Mesh mesh;
+  mesh.vertices = std::move(part.vertices);
+  mesh.normals = std::move(part.normals);
+  if (colors) mesh.colors = std::move(part.colors);
+  mesh.triangles = std::move(part.triangles);
+  return mesh;
+}
+
+// The mesh of each block (an empty part for nullptr), meshed by options.threads threads (0: one
+// per core).
+std::vector<BlockPart> mesh_blocks(const HostVolume& volume, const MeshOptions& options,
+                                   const BlockIndex& index,
+                                   const std::vector<const VolumeBlock*>& blocks) {
+  std::vector<BlockPart> parts(blocks.size());
   unsigned threads = options.threads > 0 ? static_cast<unsigned>(options.threads)
                                          : std::max(1u, std::thread::hardware_concurrency());
-  threads =
-      static_cast<unsigned>(std::min<std::size_t>(threads, std::max<std::size_t>(1, order.size())));
+  threads = static_cast<unsigned>(
+      std::min<std::size_t>(threads, std::max<std::size_t>(1, blocks.size())));
   std::atomic<std::size_t> next{0};
   auto work = [&] {
     Mesher mesher(volume, options, index);
-    for (std::size_t n = next.fetch_add(1); n < order.size(); n = next.fetch_add(1)) {
-      mesher.mesh_block(volume.blocks[order[n]], parts[n]);
+    for (std::size_t n = next.fetch_add(1); n < blocks.size(); n = next.fetch_add(1)) {
+      if (blocks[n] != nullptr) mesher.mesh_block(*blocks[n], parts[n]);
     }
   };
   std::vector<std::thread> pool;
@@ -335,10 +348,10 @@ std::vector<BlockMesh> mesh_blocks(const HostVolume& volume, const MeshOptions& 
 
 // One mesh from the parts, in their order: a vertex on a lattice edge that several parts share
 // is kept once. Releases the parts as it goes.
-Mesh weld(std::vector<BlockMesh>& parts, bool colors) {
+Mesh weld(std::vector<BlockPart>& parts, bool colors) {
   Mesh result;
   std::size_t vertex_bound = 0, shared_bound = 0, triangle_count = 0;
-  for (const BlockMesh& part : parts) {
+  for (const BlockPart& part : parts) {
     vertex_bound += part.vertices.size();
     triangle_count += part.triangles.size();
     for (std::uint64_t key : part.edge_keys) shared_bound += (key & kSharedBit) != 0;
@@ -350,7 +363,7 @@ Mesh weld(std::vector<BlockMesh>& parts, bool colors) {
   // Only edges on block faces can appear in several parts; the others are new vertices.
   EdgeVertexMap welded(shared_bound);
   std::vector<std::uint32_t> remap;
-  for (BlockMesh& part : parts) {
+  for (BlockPart& part : parts) {
     remap.resize(part.vertices.size());
     for (std::size_t v = 0; v < part.vertices.size(); ++v) {
       const auto next_index = static_cast<std::uint32_t>(result.vertices.size());
@@ -365,7 +378,7 @@ Mesh weld(std::vector<BlockMesh>& parts, bool colors) {
     for (const auto& tri : part.triangles) {
       result.triangles.push_back({remap[tri[0]], remap[tri[1]], remap[tri[2]]});
     }
-    part = BlockMesh{};  // release as we go: the parts together are as large as the mesh
+    part = BlockPart{};  // release as we go: the parts together are as large as the mesh
   }
   result.vertices.shrink_to_fit();
   result.normals.shrink_to_fit();
@@ -379,8 +392,33 @@ Result<Mesh> extract_mesh(const HostVolume& volume, const MeshOptions& options) 
   IMUFUSION_RETURN_IF_ERROR(check_options(volume, options));
   auto index = index_blocks(volume);
   if (!index.ok()) return index.error();
-  std::vector<BlockMesh> parts = mesh_blocks(volume, options, *index, coordinate_order(volume));
+  std::vector<BlockPart> parts = mesh_blocks(volume, options, *index, coordinate_order(volume));
   return weld(parts, options.colors);
+}
+
+Result<std::vector<BlockMesh>> extract_block_meshes(const HostVolume& volume,
+                                                    std::span<const Eigen::Vector3i> blocks,
+                                                    const MeshOptions& options) {
+  IMUFUSION_RETURN_IF_ERROR(check_options(volume, options));
+  auto index = index_blocks(volume);
+  if (!index.ok()) return index.error();
+  std::vector<const VolumeBlock*> listed;
+  listed.reserve(blocks.size());
+  for (const Eigen::Vector3i& c : blocks) {
+    if (!mesh::block_in_range(c)) {
+      return make_error(ErrorCode::kInvalidArgument,
+                        block_message(c) + " is outside the supported lattice");
+    }
+    const auto it = index->find(mesh::block_key(c));
+    listed.push_back(it == index->end() ? nullptr : &volume.blocks[it->second]);
+  }
+  std::vector<BlockPart> parts = mesh_blocks(volume, options, *index, listed);
+  std::vector<BlockMesh> meshes(blocks.size());
+  for (std::size_t b = 0; b < blocks.size(); ++b) {
+    meshes[b].block = blocks[b];
+    meshes[b].mesh = part_mesh(parts[b], options.colors);
+  }
+  return meshes;
 }
 
 }  // namespace imufusion

@@ -13,6 +13,7 @@
 #include "imufusion/reconstructor.hpp"
 #include "scan/clock.hpp"
 #include "scan/loss_recovery.hpp"
+#include "scan/mesh_changes.hpp"
 #include "scan/model_aligner.hpp"
 #include "scan/relocalization.hpp"
 #include "vk/command_sequence.hpp"
@@ -61,6 +62,7 @@ struct Reconstructor::Impl final : ModelAligner {
   gpu::Buffer color;
   std::vector<std::uint32_t> rgba;
   RaycastBuffers model;
+  MeshChangeTracker mesh_changes;  // what extract_mesh_changes() reported so far
   std::optional<InertialNavigator> navigator;
   TrackingStateMachine machine;
   PairingReference pairing;                      // what this scan's aligned frames pair
