@@ -104,8 +104,9 @@ void bind_frames(py::class_<Reconstructor>& c) {
        },
        py::arg("timestamp"), py::arg("depth"), py::arg("color") = py::none(),
        py::arg("imu") = py::none(), py::arg("depth_scale") = kDefaultDepthScale,
-       "Tracks a depth frame (uint16 raw units, depth_scale per metre, or float32 metres; (H, W))"
-       " with its colour ((H, W, 3) uint8 or None) and the IMU samples since the previous frame "
+       "Tracks a depth frame (uint16 raw units, depth_scale per metre, or float32 metres, not "
+       "quantized; (H, W), read in place, rows may be strided) with its colour ((H, W, 3) uint8 or "
+       "None) and the IMU samples since the previous frame "
        "((N, 7) t gx gy gz ax ay az, or ImuSamples), and fuses it when tracking is reliable")
       .def(
           "fuse_with_pose",
