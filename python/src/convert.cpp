@@ -124,6 +124,59 @@ ColorImage color_from_array(const py::handle& value, const char* name) {
   return image;
 }
 
+namespace {
+
+// The array itself when its rows are packed pixels `pixel_bytes` apart at a positive stride of
+// at least a row, else a C-contiguous copy as T.
+template <typename T>
+py::array with_packed_rows(const py::array& array, py::ssize_t pixel_bytes) {
+  const py::ssize_t row = pixel_bytes * array.shape(1);
+  if (array.strides(1) == pixel_bytes && array.strides(0) >= row &&
+      array.strides(0) % static_cast<py::ssize_t>(sizeof(T)) == 0 &&
+      (array.ndim() == 2 || array.strides(2) == static_cast<py::ssize_t>(sizeof(T))))
+    return array;
+  return contiguous<T>(array);
+}
+
+}  // namespace
+
+ArrayView<DepthView> depth_view_of_array(const py::handle& value, double depth_scale,
+                                         const char* name) {
+  const std::string expected = "a uint16 (raw units) or float32 (metres) array of shape (H, W)";
+  py::array array = as_array(value, name, expected);
+  const bool metres = has_dtype<float>(array) || has_dtype<double>(array);
+  if (array.ndim() != 2 || !(metres || has_dtype<std::uint16_t>(array)))
+    bad_array(name, expected, value);
+  if (!(depth_scale > 0) || !std::isfinite(depth_scale))
+    throw py::value_error(std::string(name) + ": depth_scale must be positive, got " +
+                          std::to_string(depth_scale));
+  const int h = static_cast<int>(array.shape(0)), w = static_cast<int>(array.shape(1));
+  if (metres) {
+    const py::array floats =
+        has_dtype<float>(array)
+            ? array
+            : py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(array);
+    py::array kept = with_packed_rows<float>(floats, sizeof(float));
+    const auto stride = static_cast<std::size_t>(kept.strides(0));
+    return {kept, DepthView::metres(static_cast<const float*>(kept.data()), w, h, stride)};
+  }
+  py::array kept = with_packed_rows<std::uint16_t>(array, sizeof(std::uint16_t));
+  const auto stride = static_cast<std::size_t>(kept.strides(0));
+  return {kept, DepthView::uint16(static_cast<const std::uint16_t*>(kept.data()), w, h, depth_scale,
+                                  stride)};
+}
+
+ArrayView<ColorView> color_view_of_array(const py::handle& value, const char* name) {
+  const std::string expected = "a uint8 array of shape (H, W, 3)";
+  py::array array = as_array(value, name, expected);
+  if (!has_dtype<std::uint8_t>(array) || array.ndim() != 3 || array.shape(2) != 3)
+    bad_array(name, expected, value);
+  py::array kept = with_packed_rows<std::uint8_t>(array, 3);
+  return {kept, ColorView{static_cast<const std::uint8_t*>(kept.data()),
+                          static_cast<int>(array.shape(1)), static_cast<int>(array.shape(0)),
+                          static_cast<std::size_t>(kept.strides(0)), ColorFormat::kRgb8, 0}};
+}
+
 std::vector<ImuSample> imu_from_object(const py::handle& value, const char* name) {
   std::vector<ImuSample> samples;
   if (value.is_none()) return samples;

@@ -56,6 +56,20 @@ std::string describe_array(const py::handle& value);
 DepthImage depth_from_array(const py::handle& value, double depth_scale, const char* name);
 /// A colour image from a uint8 array of shape (H, W, 3).
 ColorImage color_from_array(const py::handle& value, const char* name);
+
+/// A view over a numpy frame and the array it reads (the caller's, or a C-contiguous copy when
+/// its pixels are not packed along rows); the view is valid while `array` is held.
+template <typename View>
+struct ArrayView {
+  py::array array;
+  View view;
+};
+/// A depth view over a uint16 (raw units, `depth_scale` per metre) or float32 / float64 (metres,
+/// float64 copied to float32) array of shape (H, W); rows may be strided.
+ArrayView<DepthView> depth_view_of_array(const py::handle& value, double depth_scale,
+                                         const char* name);
+/// A colour view over a uint8 (H, W, 3) array; rows may be strided.
+ArrayView<ColorView> color_view_of_array(const py::handle& value, const char* name);
 /// IMU samples from None (none), an (N, 7) float array (t, gx, gy, gz, ax, ay, az: s, rad/s,
 /// m/s^2), or a sequence of ImuSample.
 std::vector<ImuSample> imu_from_object(const py::handle& value, const char* name);

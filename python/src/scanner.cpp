@@ -12,24 +12,27 @@ namespace imufusion::python {
 namespace {
 
 // The images and IMU samples of one frame, checked against the scanner's camera.
+// The views read the numpy arrays they hold, which outlive the call that releases the GIL.
 struct FrameInput {
-  DepthImage depth;
-  std::optional<ColorImage> color;
+  ArrayView<DepthView> depth;
+  std::optional<ArrayView<ColorView>> color;
   std::vector<ImuSample> imu;
+
+  ColorInput color_input() const { return color ? ColorInput(color->view) : ColorInput(); }
 };
 
 FrameInput frame_input(const Reconstructor& scanner, const py::handle& depth,
                        const py::handle& color, const py::handle& imu, double depth_scale) {
-  FrameInput in{depth_from_array(depth, depth_scale, "depth"), std::nullopt,
+  FrameInput in{depth_view_of_array(depth, depth_scale, "depth"), std::nullopt,
                 imu_from_object(imu, "imu")};
   const Intrinsics& k = scanner.config().intrinsics;
   const std::string size = std::to_string(k.height) + ", " + std::to_string(k.width);
-  if (in.depth.width != k.width || in.depth.height != k.height)
+  if (in.depth.view.width != k.width || in.depth.view.height != k.height)
     throw py::value_error("depth: expected shape (" + size + ") (the intrinsics' size), got " +
                           describe_array(depth));
   if (!color.is_none()) {
-    in.color = color_from_array(color, "color");
-    if (in.color->width != k.width || in.color->height != k.height)
+    in.color = color_view_of_array(color, "color");
+    if (in.color->view.width != k.width || in.color->view.height != k.height)
       throw py::value_error("color: expected shape (" + size + ", 3) (the intrinsics' size), got " +
                             describe_array(color));
   }
@@ -88,7 +91,7 @@ void bind_frame_result(py::module_& m) {
 
 Result<FrameResult> track(Reconstructor& self, double t, const FrameInput& in) {
   py::gil_scoped_release unlocked;
-  return self.track_and_fuse(t, in.depth, in.color ? &*in.color : nullptr, in.imu);
+  return self.track_and_fuse(t, in.depth.view, in.color_input(), in.imu);
 }
 
 void bind_frames(py::class_<Reconstructor>& c) {
@@ -101,8 +104,9 @@ void bind_frames(py::class_<Reconstructor>& c) {
        },
        py::arg("timestamp"), py::arg("depth"), py::arg("color") = py::none(),
        py::arg("imu") = py::none(), py::arg("depth_scale") = kDefaultDepthScale,
-       "Tracks a depth frame (uint16 raw units, depth_scale per metre, or float32 metres; (H, W))"
-       " with its colour ((H, W, 3) uint8 or None) and the IMU samples since the previous frame "
+       "Tracks a depth frame (uint16 raw units, depth_scale per metre, or float32 metres, not "
+       "quantized; (H, W), read in place, rows may be strided) with its colour ((H, W, 3) uint8 or "
+       "None) and the IMU samples since the previous frame "
        "((N, 7) t gx gy gz ax ay az, or ImuSamples), and fuses it when tracking is reliable")
       .def(
           "fuse_with_pose",
@@ -111,8 +115,7 @@ void bind_frames(py::class_<Reconstructor>& c) {
             const FrameInput in = frame_input(self, depth, color, imu, depth_scale);
             const Eigen::Isometry3d T = pose_from_array(pose, "T_world_camera");
             py::gil_scoped_release unlocked;
-            return unwrap(
-                self.fuse_with_pose(t, in.depth, in.color ? &*in.color : nullptr, T, in.imu));
+            return unwrap(self.fuse_with_pose(t, in.depth.view, in.color_input(), T, in.imu));
           },
           py::arg("timestamp"), py::arg("depth"), py::arg("color"), py::arg("T_world_camera"),
           py::arg("imu") = py::none(), py::arg("depth_scale") = kDefaultDepthScale,

@@ -87,3 +87,39 @@ def test_known_poses_and_metre_depth(small_sequence):
     assert scanner.allocated_blocks > 0
     assert len(scanner.extract_mesh().triangles) > 1000
 
+
+
+def test_strided_numpy_slices_track_as_the_packed_frames(small_sequence):
+    """Depth and colour read in place from row-strided slices (padded arrays) give the same
+    poses, bit for bit, as the packed arrays they were cut from."""
+    sequence = imufusion.SequenceReader(small_sequence)
+    frames = list(sequence)[:8]
+    config = imufusion.sequence_config(imufusion.SensorPreset.KINECT, sequence, with_imu=True)
+    poses = []
+    for strided in (False, True):
+        scanner = imufusion.Reconstructor(config)
+        poses.append([])
+        for frame in frames:
+            depth, color = frame.depth, frame.color
+            if strided:
+                h, w = depth.shape
+                padded = np.full((h, w + 9), 0xBEEF, dtype=np.uint16)
+                padded[:, :w] = depth
+                depth = padded[:, :w]
+                padded_color = np.full((h, w + 5, 3), 7, dtype=np.uint8)
+                padded_color[:, :w] = color
+                color = padded_color[:, :w]
+                assert not depth.flags.c_contiguous and not color.flags.c_contiguous
+            result = scanner.track_and_fuse(frame.timestamp, depth, color, frame.imu,
+                                            depth_scale=frame.depth_scale)
+            poses[-1].append(result.T_world_camera)
+    assert np.array_equal(np.array(poses[0]), np.array(poses[1]))
+    # Column-strided slices (every other element) are copied, not misread.
+    scanner = imufusion.Reconstructor(config)
+    for frame, expected in zip(frames[:4], poses[0]):
+        depth = np.repeat(frame.depth, 2, axis=1)[:, ::2]
+        color = np.repeat(frame.color, 2, axis=1)[:, ::2]
+        assert depth.shape == frame.depth.shape and not depth.flags.c_contiguous
+        result = scanner.track_and_fuse(frame.timestamp, depth, color, frame.imu,
+                                        depth_scale=frame.depth_scale)
+        assert np.array_equal(result.T_world_camera, expected)

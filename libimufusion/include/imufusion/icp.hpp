@@ -32,7 +32,7 @@ struct DepthNoiseModel {
     return a > 0 ? (a / s) * (a / s) : 1.0;
   }
   /// Mean sigma(z)^2 (m^2) over the depths of `depth` in [min_depth, max_depth] (m); 0 when none.
-  double mean_variance(const DepthImage& depth, double min_depth, double max_depth) const;
+  double mean_variance(const DepthView& depth, double min_depth, double max_depth) const;
 };
 
 /// The normal-angle test of a pair follows the current pixel's depth noise: at depth z a pair is

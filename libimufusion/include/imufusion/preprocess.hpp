@@ -48,7 +48,7 @@ class DepthPreprocessor {
 
   /// Processes one depth image of the configured size. Fails (never aborts) on a size mismatch,
   /// device loss or out-of-memory, with the VkResult in the Error.
-  Result<PreprocessedFrame> process(const DepthImage& depth);
+  Result<PreprocessedFrame> process(const DepthView& depth);
 
   const DeviceInfo& device() const;
   const PreprocessConfig& config() const;

@@ -186,14 +186,14 @@ class Reconstructor {
   /// arrived since the previous call, oldest first (they may reach past or fall short of the
   /// frame; see inertial.hpp). Errors (a frame of the wrong size, a non-increasing timestamp,
   /// NaN or out-of-order IMU samples, a lost device) change nothing; poor tracking is not an
-  /// error but a status in the result.
-  Result<FrameResult> track_and_fuse(double timestamp, const DepthImage& depth,
-                                     const ColorImage* color = nullptr,
+  /// error but a status in the result. `depth` and `color` (image_view.hpp) are read during the
+  /// call only; a DepthImage / ColorImage* converts.
+  Result<FrameResult> track_and_fuse(double timestamp, const DepthView& depth,
+                                     ColorInput color = nullptr,
                                      std::span<const ImuSample> imu = {});
   /// Fuses a frame at a known pose (ground truth or external tracking): no ICP, pose source
   /// `known`. IMU samples still feed the inertial estimators.
-  Result<FrameResult> fuse_with_pose(double timestamp, const DepthImage& depth,
-                                     const ColorImage* color,
+  Result<FrameResult> fuse_with_pose(double timestamp, const DepthView& depth, ColorInput color,
                                      const Eigen::Isometry3d& T_world_camera,
                                      std::span<const ImuSample> imu = {});
 

@@ -4,8 +4,11 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cstddef>
 #include <cstdint>
 #include <vector>
+
+#include "imufusion/image_view.hpp"
 
 namespace imufusion {
 
@@ -27,12 +30,39 @@ struct DepthImage {
   std::vector<std::uint16_t> data;  // row-major, width * height
 
   std::uint16_t at(int u, int v) const { return data[static_cast<std::size_t>(v) * width + u]; }
+  DepthView view() const {
+    DepthView d = DepthView::uint16(data.data(), width, height, depth_scale);
+    d.buffer_bytes = data.size() * sizeof(std::uint16_t);
+    return d;
+  }
+  operator DepthView() const { return view(); }  // NOLINT: an image is usable where a view is
 };
 
 /// An 8-bit RGB colour image, row-major, 3 bytes per pixel.
 struct ColorImage {
   int width = 0, height = 0;
   std::vector<std::uint8_t> data;  // width * height * 3
+
+  ColorView view() const {
+    return {data.data(), width, height, 0, ColorFormat::kRgb8, data.size()};
+  }
+  operator ColorView() const { return view(); }  // NOLINT: an image is usable where a view is
+};
+
+/// A frame's optional colour: none (nullptr or a null ColorImage*), an image or a view.
+class ColorInput {
+ public:
+  ColorInput(std::nullptr_t = nullptr) {}  // NOLINT: implicit, as the pointer it replaces
+  ColorInput(const ColorImage* image) : has_(image != nullptr) {  // NOLINT
+    if (image != nullptr) view_ = image->view();
+  }
+  ColorInput(const ColorView& view) : view_(view), has_(true) {}  // NOLINT
+  /// The view, or null for none.
+  const ColorView* get() const { return has_ ? &view_ : nullptr; }
+
+ private:
+  ColorView view_;
+  bool has_ = false;
 };
 
 /// A float image (metres for depth maps), row-major; 0 marks an invalid depth.

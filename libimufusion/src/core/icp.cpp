@@ -285,17 +285,18 @@ Eigen::Isometry3d icp_increment(const Eigen::Matrix<double, 6, 1>& x) {
   return inc;
 }
 
-double DepthNoiseModel::mean_variance(const DepthImage& depth, double min_depth,
+double DepthNoiseModel::mean_variance(const DepthView& depth, double min_depth,
                                       double max_depth) const {
   double sum = 0;
   std::size_t n = 0;
-  const double scale = 1.0 / depth.depth_scale;
-  for (std::uint16_t raw : depth.data) {
-    const double z = raw * scale;
-    if (raw == 0 || z < min_depth || z > max_depth) continue;
-    const double s = sigma(z);
-    sum += s * s;
-    ++n;
+  for (int v = 0; v < depth.height; ++v) {
+    for (int u = 0; u < depth.width; ++u) {
+      const double z = depth.metres(u, v);
+      if (z == 0 || z < min_depth || z > max_depth) continue;
+      const double s = sigma(z);
+      sum += s * s;
+      ++n;
+    }
   }
   return n > 0 ? sum / static_cast<double>(n) : 0.0;
 }

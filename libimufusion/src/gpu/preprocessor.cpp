@@ -1,5 +1,6 @@
 #include "gpu/preprocessor.hpp"
 
+#include <cstring>
 #include <string>
 #include <utility>
 
@@ -100,23 +101,46 @@ Result<Preprocessor> Preprocessor::create(std::shared_ptr<Context> context,
   return p;
 }
 
-Status Preprocessor::upload(const DepthImage& depth) {
+Status Preprocessor::upload(const DepthView& depth) {
   const Intrinsics& k = levels_.front();
-  if (depth.width != k.width || depth.height != k.height ||
-      depth.data.size() != static_cast<std::size_t>(k.width) * k.height) {
+  if (Status s = depth.check(k.width, k.height); !s.ok())
     return make_error(ErrorCode::kInvalidArgument,
-                      "depth image is " + std::to_string(depth.width) + "x" +
-                          std::to_string(depth.height) + ", the preprocessor was made for " +
-                          std::to_string(k.width) + "x" + std::to_string(k.height));
-  }
-  if (!(depth.depth_scale > 0)) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      "depth_scale must be positive, got " + std::to_string(depth.depth_scale));
-  }
-  depth_scale_ = depth.depth_scale;
+                      s.error().message + " (the preprocessor's intrinsics)");
+  metres_input_ = depth.format == DepthFormat::kFloatMetres;
+  if (metres_input_) return upload_metres(depth);
+  depth_scale_ = depth.raw_scale();
   // The shader reads two little-endian uint16 per 32-bit word; an odd pixel count leaves the last
-  // half-word unused.
-  return raw_.upload(depth.data.data(), depth.data.size() * sizeof(std::uint16_t));
+  // half-word unused. Rows go straight into the host-visible buffer.
+  auto* out = static_cast<std::uint16_t*>(raw_.mapped());
+  if (out == nullptr) return make_error(ErrorCode::kInternal, "raw depth buffer is not mapped");
+  const auto width = static_cast<std::size_t>(k.width);
+  for (int v = 0; v < depth.height; ++v, out += width) {
+    if (depth.format == DepthFormat::kUint16)
+      std::memcpy(out, depth.row(v), width * sizeof(std::uint16_t));
+    else
+      for (int u = 0; u < depth.width; ++u) out[u] = depth.raw(u, v);  // DEPTH16 decoded
+  }
+  return {};
+}
+
+// Float metres skip depth_to_metres: the range test it applies is applied here, in place when
+// the buffer is host-visible.
+Status Preprocessor::upload_metres(const DepthView& depth) {
+  const auto pixels = static_cast<std::size_t>(depth.width) * depth.height;
+  float* out = static_cast<float*>(raw_metres_.mapped());
+  if (out == nullptr) {
+    metres_scratch_.resize(pixels);
+    out = metres_scratch_.data();
+  }
+  const double lo = config_.min_depth, hi = config_.max_depth;
+  for (int v = 0; v < depth.height; ++v) {
+    for (int u = 0; u < depth.width; ++u) {
+      const double d = depth.metres(u, v);  // 0 for none (0, negative, NaN)
+      *out++ = d > 0 && d >= lo && d <= hi ? static_cast<float>(d) : 0.0f;
+    }
+  }
+  if (raw_metres_.mapped() != nullptr) return {};
+  return raw_metres_.upload(metres_scratch_.data(), pixels * sizeof(float));
 }
 
 Status Preprocessor::upload_maps(CommandSequence& seq, const Vec4Image& vertices,
@@ -181,7 +205,8 @@ void Preprocessor::record(CommandSequence& seq, int first_map_level) const {
   const auto h0 = static_cast<std::uint32_t>(k0.height);
   const layout::DepthToMetresParams metres{w0, h0, static_cast<float>(1.0 / depth_scale_),
                                            config_.min_depth, config_.max_depth};
-  seq.dispatch(to_metres_, {&raw_, &raw_metres_}, metres, w0, h0, "depth_to_metres");
+  if (!metres_input_)
+    seq.dispatch(to_metres_, {&raw_, &raw_metres_}, metres, w0, h0, "depth_to_metres");
   const float ss = config_.bilateral_sigma_space;
   const float sd = config_.bilateral_sigma_depth;
   const layout::BilateralParams bilateral{w0, h0, config_.bilateral_radius, 1.0f / (2 * ss * ss),
@@ -262,7 +287,7 @@ Result<DepthPreprocessor> DepthPreprocessor::create(const PreprocessConfig& conf
   return DepthPreprocessor(std::move(impl));
 }
 
-Result<PreprocessedFrame> DepthPreprocessor::process(const DepthImage& depth) {
+Result<PreprocessedFrame> DepthPreprocessor::process(const DepthView& depth) {
   IMUFUSION_RETURN_IF_ERROR(impl_->kernels.upload(depth));
   IMUFUSION_RETURN_IF_ERROR(impl_->seq.begin());
   impl_->kernels.record(impl_->seq);

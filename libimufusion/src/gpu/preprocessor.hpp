@@ -19,8 +19,9 @@ class Preprocessor {
   static Result<Preprocessor> create(std::shared_ptr<Context> context,
                                      const PreprocessConfig& config, const Intrinsics& intrinsics);
 
-  /// Uploads `depth` into the raw buffer (sizes are checked).
-  Status upload(const DepthImage& depth);
+  /// Uploads `depth` into the raw buffer, row by row (sizes are checked); float metres go to
+  /// the level-0 metres buffer and record() then skips depth_to_metres.
+  Status upload(const DepthView& depth);
   /// Uploads ready-made level-0 vertex and normal maps (e.g. a model raycast) instead of a depth
   /// image; the coarser levels are built on the GPU as by record_maps_from(), in one submission
   /// of `seq` (at least maps_dispatch_count() dispatches). The depth buffers are left as they were.
@@ -54,6 +55,7 @@ class Preprocessor {
   layout::PyramidDownParams pyramid_down(int level) const;
   /// Records the map pyramid's levels below `first_level`, built from it on the GPU.
   void record_map_pyramid(CommandSequence& seq, int first_level) const;
+  Status upload_metres(const DepthView& depth);
 
   PreprocessConfig config_;
   std::vector<Intrinsics> levels_;
@@ -62,6 +64,8 @@ class Preprocessor {
   Buffer raw_metres_;  // level 0, unfiltered
   std::vector<Buffer> depth_, vertices_, normals_;
   double depth_scale_ = 0;
+  bool metres_input_ = false;          // the last upload was float metres
+  std::vector<float> metres_scratch_;  // float metres when raw_metres_ is not host-visible
 };
 
 }  // namespace imufusion::gpu

@@ -4,24 +4,23 @@ namespace imufusion::gpu {
 
 namespace {
 
-void pack(const ColorImage& image, std::uint32_t* out, std::size_t pixels) {
-  for (std::size_t i = 0; i < pixels; ++i) {
-    out[i] = std::uint32_t{image.data[3 * i]} | (std::uint32_t{image.data[3 * i + 1]} << 8) |
-             (std::uint32_t{image.data[3 * i + 2]} << 16) | 0xFF000000u;
-  }
+// Row by row, following the view's stride.
+void pack(const ColorView& image, std::uint32_t* out) {
+  for (int v = 0; v < image.height; ++v)
+    for (int u = 0; u < image.width; ++u) *out++ = image.rgba(u, v);
 }
 
 }  // namespace
 
-void pack_rgba(const ColorImage& image, std::vector<std::uint32_t>& out) {
+void pack_rgba(const ColorView& image, std::vector<std::uint32_t>& out) {
   out.resize(static_cast<std::size_t>(image.width) * image.height);
-  pack(image, out.data(), out.size());
+  pack(image, out.data());
 }
 
-Status upload_rgba(const ColorImage& image, Buffer& buffer, std::vector<std::uint32_t>& scratch) {
+Status upload_rgba(const ColorView& image, Buffer& buffer, std::vector<std::uint32_t>& scratch) {
   const std::size_t pixels = static_cast<std::size_t>(image.width) * image.height;
   if (buffer.mapped() != nullptr && buffer.size() >= pixels * 4) {
-    pack(image, static_cast<std::uint32_t*>(buffer.mapped()), pixels);
+    pack(image, static_cast<std::uint32_t*>(buffer.mapped()));
     return {};
   }
   pack_rgba(image, scratch);

@@ -10,11 +10,11 @@
 
 namespace imufusion::gpu {
 
-/// Packs an RGB8 image into `out` (resized), alpha 255.
-void pack_rgba(const ColorImage& image, std::vector<std::uint32_t>& out);
-/// Packs an RGB8 image into `buffer` as RGBA8 words: straight into its memory when it is
+/// Packs a colour view (any ColorFormat, any stride) into `out` (resized), alpha 255.
+void pack_rgba(const ColorView& image, std::vector<std::uint32_t>& out);
+/// Packs a colour view into `buffer` as RGBA8 words: straight into its memory when it is
 /// host-visible, else through `scratch`.
-Status upload_rgba(const ColorImage& image, Buffer& buffer, std::vector<std::uint32_t>& scratch);
+Status upload_rgba(const ColorView& image, Buffer& buffer, std::vector<std::uint32_t>& scratch);
 /// Unpacks RGBA8 words into an RGB8 image of the given size.
 ColorImage unpack_rgba(const std::vector<std::uint32_t>& rgba, int width, int height);
 

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "core/so3.hpp"
 #include "scan/clock.hpp"
@@ -45,7 +46,7 @@ bool LossRecovery::disagrees(TrackingStatus status, const IcpResult& icp,
          (T_world_icp.translation() - T_world_seed.translation()).norm() > limit;
 }
 
-Result<std::size_t> LossRecovery::on_frame(const Frame& frame, const DepthImage& depth,
+Result<std::size_t> LossRecovery::on_frame(const Frame& frame, const DepthView& depth,
                                            InertialNavigator* navigator, Trajectory& trajectory,
                                            ModelAligner& model, FrameTimings& timings) {
   const TrackingDecision& decision = frame.decision;
@@ -85,8 +86,25 @@ void LossRecovery::on_known_pose(std::size_t index, double timestamp,
   pending_.reset();
 }
 
-void LossRecovery::keep_depth(KeptDepth& kept, std::size_t index, const DepthImage& depth) const {
-  kept.emplace_back(index, depth);
+LossRecovery::DepthCopy LossRecovery::DepthCopy::of(const DepthView& depth) {
+  DepthCopy copy{depth, {}};
+  const std::size_t row = depth.pixel_bytes() * static_cast<std::size_t>(depth.width);
+  copy.bytes.resize(row * static_cast<std::size_t>(depth.height));
+  for (int v = 0; v < depth.height; ++v)
+    std::memcpy(copy.bytes.data() + row * static_cast<std::size_t>(v), depth.row(v), row);
+  return copy;
+}
+
+DepthView LossRecovery::DepthCopy::view() const {
+  DepthView d = layout;
+  d.data = bytes.data();
+  d.stride_bytes = 0;
+  d.buffer_bytes = bytes.size();
+  return d;
+}
+
+void LossRecovery::keep_depth(KeptDepth& kept, std::size_t index, const DepthView& depth) const {
+  kept.emplace_back(index, DepthCopy::of(depth));
   if (kept.size() > static_cast<std::size_t>(smoothing_.retrack_frames)) kept.pop_front();
 }
 
@@ -126,7 +144,7 @@ void LossRecovery::start_pending(const Frame& frame, const Trajectory& trajector
 
 // The stretch since the last fully constrained frame: it starts again at this frame, or keeps
 // its depth for a recovery to place backward.
-void LossRecovery::update_stretch(const Frame& frame, const DepthImage& depth,
+void LossRecovery::update_stretch(const Frame& frame, const DepthView& depth,
                                   const InertialNavigator* navigator) {
   const PoseSource source = frame.decision.source;
   if (source == PoseSource::kIcp || source == PoseSource::kInitial)
@@ -183,9 +201,10 @@ Result<LossRecovery::Retracked> LossRecovery::retrack(const PendingCorrection& c
     Eigen::Isometry3d dead_reckoned = dead;
     if (const PartialFrame* partial = find_partial(c.end.fixed, i))
       dead_reckoned.translation() -= partial->moved;
-    IMUFUSION_RETURN_IF_ERROR(model.load_frame(it->second, scratch));
+    const DepthView kept = it->second.view();
+    IMUFUSION_RETURN_IF_ERROR(model.load_frame(kept, scratch));
     out.moved_reference = true;
-    auto placed = model.place(it->second, seed, scratch);
+    auto placed = model.place(kept, seed, scratch);
     if (!placed) return placed.error();
     if (!placed->icp.reliable() || !placed->icp.quality.converged) break;
     at.index = i;

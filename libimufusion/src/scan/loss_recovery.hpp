@@ -54,7 +54,7 @@ class LossRecovery {
   /// velocity `navigator` carried out of the loss), a partial frame is recorded, and the stretch
   /// starts again at a fully constrained frame or keeps this one's depth. A stretch the frame
   /// ends (a recovery, or a broken one) is settled. Returns the frames settle() placed.
-  Result<std::size_t> on_frame(const Frame& frame, const DepthImage& depth,
+  Result<std::size_t> on_frame(const Frame& frame, const DepthView& depth,
                                InertialNavigator* navigator, Trajectory& trajectory,
                                ModelAligner& model, FrameTimings& timings);
   /// Settles the pending stretch at trajectory.back(): its kept frames placed backward from the
@@ -73,7 +73,14 @@ class LossRecovery {
     Eigen::Vector3d moved;  // the frame's move from its dead-reckoned seed (world)
     bool measured = false;  // after a long loss: the move is a measurement, not exact
   };
-  using KeptDepth = std::deque<std::pair<std::size_t, DepthImage>>;
+  // A frame's depth copied packed, in its own format (uint16 units, DEPTH16 or float metres).
+  struct DepthCopy {
+    DepthView layout;  // data and stride unused
+    std::vector<std::byte> bytes;
+    static DepthCopy of(const DepthView& depth);
+    DepthView view() const;
+  };
+  using KeptDepth = std::deque<std::pair<std::size_t, DepthCopy>>;
   // The end of a lost stretch back to `anchor`: frame `index` (the first that ICP placed after
   // the loss, or the oldest the retrack placed) and where dead reckoning had put it.
   struct StretchEnd {
@@ -98,11 +105,11 @@ class LossRecovery {
   static const PartialFrame* find_partial(const std::vector<PartialFrame>& frames,
                                           std::size_t index);
   void constrain(std::size_t index, double timestamp, const InertialNavigator* navigator);
-  void keep_depth(KeptDepth& kept, std::size_t index, const DepthImage& depth) const;
+  void keep_depth(KeptDepth& kept, std::size_t index, const DepthView& depth) const;
   void restart_pending(const Frame& frame, Trajectory& trajectory);
   void start_pending(const Frame& frame, const Trajectory& trajectory,
                      InertialNavigator* navigator);
-  void update_stretch(const Frame& frame, const DepthImage& depth,
+  void update_stretch(const Frame& frame, const DepthView& depth,
                       const InertialNavigator* navigator);
   Result<Retracked> retrack(const PendingCorrection& c, const Trajectory& trajectory,
                             ModelAligner& model) const;

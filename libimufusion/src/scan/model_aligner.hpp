@@ -21,15 +21,15 @@ class ModelAligner {
   virtual ~ModelAligner() = default;
 
   /// Makes `depth` the current frame (preprocessed as an incoming one, without colour).
-  virtual Status load_frame(const DepthImage& depth, FrameTimings& timings) = 0;
+  virtual Status load_frame(const DepthView& depth, FrameTimings& timings) = 0;
   /// Makes the model raycast from T_world_camera the reference the next alignment is against.
   virtual Status set_reference(const Eigen::Isometry3d& T_world_camera, FrameTimings& timings) = 0;
   /// Full six-direction ICP of the current frame (`depth`) against the model raycast from
   /// T_world_seed, with no IMU prediction and the budget of a frame that must settle.
-  virtual Result<Placement> place(const DepthImage& depth, const Eigen::Isometry3d& T_world_seed,
+  virtual Result<Placement> place(const DepthView& depth, const Eigen::Isometry3d& T_world_seed,
                                   FrameTimings& timings) = 0;
   /// The reliability thresholds of `depth`'s alignment.
-  virtual IcpReliabilityThresholds reliability(const DepthImage& depth) const = 0;
+  virtual IcpReliabilityThresholds reliability(const DepthView& depth) const = 0;
   /// The current frame's valid vertices at pyramid level `level` (camera frame, metres).
   virtual Result<std::vector<Eigen::Vector3d>> frame_points(int level) = 0;
   /// A host copy of the model.

@@ -13,23 +13,17 @@
 
 namespace imufusion {
 
-Status Reconstructor::Impl::check_frame(double timestamp, const DepthImage& depth,
-                                        const ColorImage* rgb) const {
+Status Reconstructor::Impl::check_frame(double timestamp, const DepthView& depth,
+                                        const ColorView* rgb) const {
   const Intrinsics& k = config.intrinsics;
-  if (depth.width != k.width || depth.height != k.height ||
-      depth.data.size() != static_cast<std::size_t>(k.width) * k.height)
-    return make_error(ErrorCode::kInvalidArgument,
-                      "depth frame at t=" + std::to_string(timestamp) + " is " +
-                          std::to_string(depth.width) + "x" + std::to_string(depth.height) +
-                          ", the reconstructor was made for " + std::to_string(k.width) + "x" +
-                          std::to_string(k.height));
-  if (rgb != nullptr && (rgb->width != depth.width || rgb->height != depth.height ||
-                         rgb->data.size() != depth.data.size() * 3))
-    return make_error(ErrorCode::kInvalidArgument,
-                      "colour frame at t=" + std::to_string(timestamp) + " is " +
-                          std::to_string(rgb->width) + "x" + std::to_string(rgb->height) +
-                          ", the depth frame " + std::to_string(depth.width) + "x" +
-                          std::to_string(depth.height));
+  const auto at = [&](const Status& s) {
+    return make_error(ErrorCode::kInvalidArgument, "at t=" + std::to_string(timestamp) + ": " +
+                                                       s.error().message +
+                                                       " (the reconstructor's intrinsics)");
+  };
+  if (Status s = depth.check(k.width, k.height); !s.ok()) return at(s);
+  if (rgb != nullptr)
+    if (Status s = rgb->check(k.width, k.height); !s.ok()) return at(s);
   if (!std::isfinite(timestamp))
     return make_error(ErrorCode::kInvalidArgument,
                       "frame timestamp " + std::to_string(timestamp) + " is not finite");
@@ -42,7 +36,7 @@ Status Reconstructor::Impl::check_frame(double timestamp, const DepthImage& dept
 
 // Uploads the frame and submits its preprocessing without waiting: the GPU work that follows on
 // the queue sees its results, and finish_preprocess() collects its timings.
-Status Reconstructor::Impl::preprocess(const DepthImage& depth, const ColorImage* rgb,
+Status Reconstructor::Impl::preprocess(const DepthView& depth, const ColorView* rgb,
                                        FrameTimings& timings) {
   IMUFUSION_RETURN_IF_ERROR(finish_preprocess(timings));  // its buffers are written again here
   const auto t0 = Clock::now();
@@ -153,7 +147,7 @@ void Reconstructor::Impl::note_motion(bool tracked, double timestamp,
 
 // The scan starts at its first frame with depth enough to track against; before it, the frame
 // waits at the initial pose, lost, and the machine stays unstarted.
-LossRecovery::Frame Reconstructor::Impl::start_frame(const DepthImage& depth, FrameResult& r) {
+LossRecovery::Frame Reconstructor::Impl::start_frame(const DepthView& depth, FrameResult& r) {
   LossRecovery::Frame f;
   f.index = r.index;
   f.timestamp = r.timestamp;
@@ -169,7 +163,7 @@ LossRecovery::Frame Reconstructor::Impl::start_frame(const DepthImage& depth, Fr
 // the state machine's decision. Sets r's prediction, ICP result and pose; returns the frame as
 // loss recovery sees it.
 Result<LossRecovery::Frame> Reconstructor::Impl::track_frame(double timestamp,
-                                                             const DepthImage& depth,
+                                                             const DepthView& depth,
                                                              FrameResult& r) {
   const StampedPose& previous = trajectory.back();
   frame_interval = timestamp - previous.timestamp;
@@ -278,10 +272,11 @@ Status Reconstructor::Impl::fuse_and_record(const TrackingDecision& decision, do
 // The per-frame pipeline: preprocessing, tracking (alignment, relocalization while lost, the state
 // machine's decision), fusion and the model raycast for the next frame, then loss recovery's
 // bookkeeping and the correction of a lost stretch the frame ends.
-Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthImage& depth,
-                                                  const ColorImage* color,
+Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthView& depth,
+                                                  ColorInput color_input,
                                                   std::span<const ImuSample> imu) {
   Impl& m = *impl_;
+  const ColorView* color = color_input.get();
   const auto t0 = Clock::now();
   IMUFUSION_RETURN_IF_ERROR(m.check_frame(timestamp, depth, color));
   IMUFUSION_RETURN_IF_ERROR(m.add_imu(imu));
@@ -310,11 +305,12 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthI
   return r;
 }
 
-Result<FrameResult> Reconstructor::fuse_with_pose(double timestamp, const DepthImage& depth,
-                                                  const ColorImage* color,
+Result<FrameResult> Reconstructor::fuse_with_pose(double timestamp, const DepthView& depth,
+                                                  ColorInput color_input,
                                                   const Eigen::Isometry3d& T_world_camera,
                                                   std::span<const ImuSample> imu) {
   Impl& m = *impl_;
+  const ColorView* color = color_input.get();
   const auto t0 = Clock::now();
   IMUFUSION_RETURN_IF_ERROR(m.check_frame(timestamp, depth, color));
   if (!T_world_camera.matrix().allFinite())

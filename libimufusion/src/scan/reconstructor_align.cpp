@@ -24,16 +24,16 @@ Status Reconstructor::Impl::pair_with_own_model(FrameTimings& timings) {
   return {};
 }
 
-std::size_t Reconstructor::Impl::valid_depth_pixels(const DepthImage& depth) const {
-  const double scale = 1.0 / depth.depth_scale;
-  return static_cast<std::size_t>(
-      std::count_if(depth.data.begin(), depth.data.end(),
-                    [&](std::uint16_t raw) { return valid_depth(raw, raw * scale); }));
+std::size_t Reconstructor::Impl::valid_depth_pixels(const DepthView& depth) const {
+  std::size_t n = 0;
+  for (int v = 0; v < depth.height; ++v)
+    for (int u = 0; u < depth.width; ++u) n += valid_depth(depth.metres(u, v)) ? 1 : 0;
+  return n;
 }
 
 // The reliability thresholds for this frame: the residual test widened to its depth noise,
 // the pairing tests lowered to what this scan's aligned frames pair.
-IcpReliabilityThresholds Reconstructor::Impl::reliability(const DepthImage& depth) const {
+IcpReliabilityThresholds Reconstructor::Impl::reliability(const DepthView& depth) const {
   IcpReliabilityThresholds t =
       config.icp.reliability.widened_to_noise(config.icp.depth_noise.mean_variance(
           depth, config.preprocess.min_depth, config.preprocess.max_depth));
@@ -45,14 +45,15 @@ IcpReliabilityThresholds Reconstructor::Impl::reliability(const DepthImage& dept
 // imu.seed_reach_pixels): the finest level at which 3 sigma of the seed's image motion, at
 // the frame's median depth, is within the reach.
 int Reconstructor::Impl::seed_start_level(const MotionPrediction& prediction,
-                                          const DepthImage& depth) const {
+                                          const DepthView& depth) const {
   const int coarsest = config.preprocess.levels - 1 - tracking_level;  // ICP's levels
   const double reach = config.imu.seed_reach_pixels;
   std::vector<double> z;
-  const double scale = 1.0 / depth.depth_scale;
-  for (std::size_t i = 0; i < depth.data.size(); i += 7) {  // a sample is enough for a median
-    const double d = depth.data[i] * scale;
-    if (valid_depth(depth.data[i], d)) z.push_back(d);
+  const auto pixels = static_cast<std::size_t>(depth.width) * depth.height;
+  const auto width = static_cast<std::size_t>(depth.width);
+  for (std::size_t i = 0; i < pixels; i += 7) {  // a sample is enough for a median
+    const double d = depth.metres(static_cast<int>(i % width), static_cast<int>(i / width));
+    if (valid_depth(d)) z.push_back(d);
   }
   if (z.empty()) return coarsest;
   std::nth_element(z.begin(), z.begin() + static_cast<std::ptrdiff_t>(z.size() / 2), z.end());
@@ -68,7 +69,7 @@ int Reconstructor::Impl::seed_start_level(const MotionPrediction& prediction,
 // ICP of the current frame against the reference from a seed; `settling`: the budget and
 // convergence thresholds of a frame that must first settle onto the model (lost or
 // recovering).
-Result<IcpResult> Reconstructor::Impl::align(const DepthImage& depth,
+Result<IcpResult> Reconstructor::Impl::align(const DepthView& depth,
                                              const Eigen::Isometry3d& T_world_seed,
                                              const MotionPrediction& prediction, bool settling,
                                              FrameTimings& timings) {
@@ -147,7 +148,7 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthImage& depth,
   return result;
 }
 
-Status Reconstructor::Impl::load_frame(const DepthImage& depth, FrameTimings& timings) {
+Status Reconstructor::Impl::load_frame(const DepthView& depth, FrameTimings& timings) {
   return preprocess(depth, nullptr, timings);
 }
 
@@ -157,7 +158,7 @@ Status Reconstructor::Impl::set_reference(const Eigen::Isometry3d& T_world_camer
   return updated ? Status{} : Status{updated.error()};
 }
 
-Result<ModelAligner::Placement> Reconstructor::Impl::place(const DepthImage& depth,
+Result<ModelAligner::Placement> Reconstructor::Impl::place(const DepthView& depth,
                                                            const Eigen::Isometry3d& T_world_seed,
                                                            FrameTimings& timings) {
   IMUFUSION_RETURN_IF_ERROR(set_reference(T_world_seed, timings));

@@ -83,8 +83,8 @@ struct Reconstructor::Impl final : ModelAligner {
   std::deque<StampedPose> tracked_run;
 
   // The per-frame pipeline (reconstructor.cpp).
-  Status check_frame(double timestamp, const DepthImage& depth, const ColorImage* rgb) const;
-  Status preprocess(const DepthImage& depth, const ColorImage* rgb, FrameTimings& timings);
+  Status check_frame(double timestamp, const DepthView& depth, const ColorView* rgb) const;
+  Status preprocess(const DepthView& depth, const ColorView* rgb, FrameTimings& timings);
   Status finish_preprocess(FrameTimings& timings);
   Result<IntegrationStats> integrate(bool with_color, const Eigen::Isometry3d& T_world_camera,
                                      FrameTimings& timings);
@@ -93,9 +93,8 @@ struct Reconstructor::Impl final : ModelAligner {
                        std::vector<KernelTiming>* timings);
   Result<std::optional<IntegrationStats>> fuse_and_update_reference(
       const Eigen::Isometry3d& T_world_camera, bool fuse, bool with_color, FrameTimings& timings);
-  LossRecovery::Frame start_frame(const DepthImage& depth, FrameResult& r);
-  Result<LossRecovery::Frame> track_frame(double timestamp, const DepthImage& depth,
-                                          FrameResult& r);
+  LossRecovery::Frame start_frame(const DepthView& depth, FrameResult& r);
+  Result<LossRecovery::Frame> track_frame(double timestamp, const DepthView& depth, FrameResult& r);
   void note_decision(const TrackingDecision& decision, const IcpResult& icp, bool was_lost,
                      const StampedPose& previous, FrameResult& r);
   Eigen::Isometry3d constant_velocity_motion(double interval) const;
@@ -105,17 +104,17 @@ struct Reconstructor::Impl final : ModelAligner {
 
   // The alignment of a frame (reconstructor_align.cpp).
   Status pair_with_own_model(FrameTimings& timings);
-  std::size_t valid_depth_pixels(const DepthImage& depth) const;
-  int seed_start_level(const MotionPrediction& prediction, const DepthImage& depth) const;
-  Result<IcpResult> align(const DepthImage& depth, const Eigen::Isometry3d& T_world_seed,
+  std::size_t valid_depth_pixels(const DepthView& depth) const;
+  int seed_start_level(const MotionPrediction& prediction, const DepthView& depth) const;
+  Result<IcpResult> align(const DepthView& depth, const Eigen::Isometry3d& T_world_seed,
                           const MotionPrediction& prediction, bool settling, FrameTimings& timings);
 
   // ModelAligner, for relocalization and loss recovery (reconstructor_align.cpp).
-  Status load_frame(const DepthImage& depth, FrameTimings& timings) override;
+  Status load_frame(const DepthView& depth, FrameTimings& timings) override;
   Status set_reference(const Eigen::Isometry3d& T_world_camera, FrameTimings& timings) override;
-  Result<Placement> place(const DepthImage& depth, const Eigen::Isometry3d& T_world_seed,
+  Result<Placement> place(const DepthView& depth, const Eigen::Isometry3d& T_world_seed,
                           FrameTimings& timings) override;
-  IcpReliabilityThresholds reliability(const DepthImage& depth) const override;
+  IcpReliabilityThresholds reliability(const DepthView& depth) const override;
   Result<std::vector<Eigen::Vector3d>> frame_points(int level) override;
   Result<HostVolume> model_snapshot() const override { return volume.snapshot(); }
 
@@ -130,9 +129,9 @@ struct Reconstructor::Impl final : ModelAligner {
     return {config.preprocess.min_depth, config.preprocess.max_depth};
   }
 
-  // Whether a raw depth measurement is kept by preprocessing: measured and within its range.
-  bool valid_depth(std::uint16_t raw, double z) const {
-    return raw != 0 && z >= config.preprocess.min_depth && z <= config.preprocess.max_depth;
+  // Whether a depth measurement (metres, 0 = none) is kept by preprocessing: within its range.
+  bool valid_depth(double z) const {
+    return z > 0 && z >= config.preprocess.min_depth && z <= config.preprocess.max_depth;
   }
 
   InertialStatus inertial_status() const {

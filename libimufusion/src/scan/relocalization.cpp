@@ -22,7 +22,7 @@ void RelocalizationDriver::reset() {
 }
 
 Result<RelocalizationDriver::Outcome> RelocalizationDriver::on_frame(const Frame& frame,
-                                                                     const DepthImage& depth,
+                                                                     const DepthView& depth,
                                                                      ModelAligner& model,
                                                                      FrameTimings& timings) {
   Outcome out;
@@ -86,7 +86,7 @@ Status RelocalizationDriver::build_field(ModelAligner& model, const Eigen::Vecto
 // two cells away), the view is ambiguous (a wall and the floor slide along their common line)
 // and nothing is accepted.
 Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(const Frame& frame,
-                                                                            const DepthImage& depth,
+                                                                            const DepthView& depth,
                                                                             ModelAligner& model,
                                                                             FrameTimings& timings) {
   const auto t0 = Clock::now();

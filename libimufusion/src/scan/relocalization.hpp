@@ -37,7 +37,7 @@ class RelocalizationDriver {
   /// frames, and whenever ICP from the seed would end a long loss), runs the search with
   /// `model`'s current frame, `depth`. The search's raycasts and ICP add their kernels to
   /// `timings`, their wall time to relocalize_ms only.
-  Result<Outcome> on_frame(const Frame& frame, const DepthImage& depth, ModelAligner& model,
+  Result<Outcome> on_frame(const Frame& frame, const DepthView& depth, ModelAligner& model,
                            FrameTimings& timings);
   /// The model changed (a frame was fused): the distance field is built again at the next search.
   void model_changed() { field_current_ = false; }
@@ -48,7 +48,7 @@ class RelocalizationDriver {
   bool long_loss(const Frame& frame) const;
   bool should_search(const Frame& frame, bool long_loss);
   Status build_field(ModelAligner& model, const Eigen::Vector3d& anchor);
-  Result<std::optional<ModelAligner::Placement>> search(const Frame& frame, const DepthImage& depth,
+  Result<std::optional<ModelAligner::Placement>> search(const Frame& frame, const DepthView& depth,
                                                         ModelAligner& model, FrameTimings& timings);
 
   RelocalizationConfig config_;
