@@ -27,7 +27,8 @@ struct PathPoint {
 };
 
 // The raycast as a picture: where the surface has fused colour, that colour modulated by the
-// Lambertian shading (so shape still shows); elsewhere the shading alone; black where no ray hit.
+// Lambertian shading (so shape still shows); elsewhere the shading with an ambient floor of 48
+// (surfaces seen from behind or edge-on stay visible); black where no ray hit.
 inline ColorImage model_picture(const RaycastImages& r) {
   ColorImage out;
   out.width = r.shaded.width;
@@ -35,10 +36,13 @@ inline ColorImage model_picture(const RaycastImages& r) {
   out.data.assign(r.shaded.data.size(), 0);
   const bool has_color = r.color.data.size() == r.shaded.data.size();
   for (std::size_t i = 0; i < out.data.size(); i += 3) {
+    if (r.vertices.data.size() * 3 == out.data.size() && r.vertices.data[i / 3].w() < 0.5f)
+      continue;  // no hit
     const std::uint8_t* s = &r.shaded.data[i];
     const std::uint8_t* c = has_color ? &r.color.data[i] : nullptr;
     if (c == nullptr || (c[0] == 0 && c[1] == 0 && c[2] == 0)) {
-      std::copy(s, s + 3, &out.data[i]);
+      for (int ch = 0; ch < 3; ++ch)
+        out.data[i + ch] = static_cast<std::uint8_t>(48 + s[ch] * 207 / 255);
       continue;
     }
     const double light = (s[0] + s[1] + s[2]) / (3.0 * 255.0);

@@ -29,8 +29,11 @@ TEST(ModelPicture, ColourWhereFusedShadingElsewhere) {
   r.shaded = filled(2, 1, {200, 200, 200});
   r.color = filled(2, 1, {0, 0, 0});
   r.color.data[3] = 100;  // the second pixel: fused colour (100, 0, 0)
+  r.vertices.width = 2;
+  r.vertices.height = 1;
+  r.vertices.data.assign(2, Eigen::Vector4f(0, 0, 1, 1));  // both rays hit
   const ColorImage out = model_picture(r);
-  EXPECT_EQ(pixel(out, 0, 0), (Rgb{200, 200, 200}));
+  EXPECT_EQ(pixel(out, 0, 0), (Rgb{210, 210, 210}));  // 48 + 200 * 207 / 255
   const Rgb coloured = pixel(out, 1, 0);
   EXPECT_NEAR(coloured[0], 100 * (0.35 + 0.75 * 200 / 255.0), 1.0);
   EXPECT_EQ(coloured[1], 0);
@@ -38,6 +41,11 @@ TEST(ModelPicture, ColourWhereFusedShadingElsewhere) {
   // Darker shading darkens the colour: shape shows through it.
   r.shaded.data[3] = r.shaded.data[4] = r.shaded.data[5] = 50;
   EXPECT_LT(pixel(model_picture(r), 1, 0)[0], coloured[0]);
+  // Seen from behind (no light): still visible; no hit: black.
+  r.shaded.data[0] = r.shaded.data[1] = r.shaded.data[2] = 0;
+  EXPECT_EQ(pixel(model_picture(r), 0, 0), (Rgb{48, 48, 48}));
+  r.vertices.data[0].w() = 0;
+  EXPECT_EQ(pixel(model_picture(r), 0, 0), (Rgb{0, 0, 0}));
 }
 
 TEST(Downsample2x, AveragesEachBlockAndDropsOddEdges) {
