@@ -218,7 +218,9 @@ Result<std::size_t> write_outputs(const io::OutputSet& set, const SequenceReader
   if (mesh->triangles.empty()) return std::size_t{0};
   summary["mesh_vertices"] = mesh->vertices.size();
   summary["mesh_triangles"] = mesh->triangles.size();
-  IMUFUSION_RETURN_IF_ERROR(tools::write_model_outputs(set, rec, *mesh));
+  auto pictures_ms = tools::write_model_outputs(set, rec, *mesh, tools::path_of(rec.trajectory()));
+  if (!pictures_ms) return pictures_ms.error();
+  summary["pictures_ms"] = *pictures_ms;
   add_mesh_accuracy(reader, rec, *mesh, summary);
   IMUFUSION_RETURN_IF_ERROR(
       io::write_text_atomically(set.staged("summary.json"), tools::json_text(summary) + "\n"));

@@ -151,7 +151,10 @@ Status write_outputs(const io::OutputSet& set, Reconstructor& rec, ScanRun& run,
   summary["mesh_vertices"] = mesh->vertices.size();
   summary["mesh_triangles"] = mesh->triangles.size();
   if (!mesh->triangles.empty()) {
-    IMUFUSION_RETURN_IF_ERROR(tools::write_model_outputs(set, rec, *mesh));
+    auto pictures_ms =
+        tools::write_model_outputs(set, rec, *mesh, tools::path_of(rec.trajectory(), run.lost_at));
+    if (!pictures_ms) return pictures_ms.error();
+    summary["pictures_ms"] = *pictures_ms;
     *mesh_line = "mesh " + std::to_string(mesh->triangles.size()) + " triangles -> " +
                  set.final_path("mesh.glb").string() + ", preview -> " +
                  set.final_path("preview.png").string();
@@ -224,6 +227,17 @@ Result<std::optional<FrameResult>> scan_one(const ScanOptions& opt, Reconstructo
   return std::optional<FrameResult>(std::move(*result));
 }
 
+// Warns, once, when the given IMU mounting disagrees with the motion (InertialStatus).
+void warn_mounting(const InertialStatus& in, bool progress, ScanRun& run) {
+  if (!in.R_camera_imu_disagrees || run.mounting_warned) return;
+  run.mounting_warned = true;
+  char angle[32];
+  std::snprintf(angle, sizeof angle, "%.0f", in.R_camera_imu_disagreement_deg);
+  std::cerr << (progress ? "\n" : "") << "warning: the given IMU mounting (imu_to_camera.txt, "
+            << "T_camera_imu) disagrees with the motion by " << angle
+            << " deg: it is probably wrong; --estimate-imu-rotation estimates it from the scan\n";
+}
+
 // What the scan loop reads: the kept frames (`total` of them expected, 0 when unknown), the UDP
 // IMU stream and the recorder (each optional), and the poses of --poses.
 struct ScanInputs {
@@ -291,6 +305,9 @@ int scan_frames(const ScanOptions& opt, Reconstructor& rec, ScanInputs in, ScanR
           run.frames_csv_rows.append(run.frames_csv, frames_csv_header() + "\n",
                                      frames_csv_row(**result, rec.allocated_blocks()) + "\n");
     }
+    if (std::string(tools::tracking_state(**result)) != "tracking")
+      run.lost_at.push_back((*result)->timestamp);
+    warn_mounting((*result)->inertial, progress, run);
     run.summary.add(**result);
     run.last = std::move(**result);
     const double frames_done = static_cast<double>(run.summary.frames());

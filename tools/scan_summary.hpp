@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "imufusion/eval.hpp"
 #include "imufusion/reconstructor.hpp"
@@ -28,6 +29,8 @@ struct ScanRun {
   std::string stopped;              // why the scan ended early, empty when it ran through
   std::string imu_fallback;         // why the sequence's IMU was not used, empty when it was
   bool pool_full_reported = false;
+  bool mounting_warned = false;  // the given IMU mounting was reported to disagree
+  std::vector<double> lost_at;   // s, the frames whose pose tracking did not give, in order
   std::size_t frames_without_pose = 0;
 };
 
@@ -67,6 +70,13 @@ inline nlohmann::json imu_estimates_json(const InertialStatus& in) {
   imu["R_camera_imu_estimated"] = in.R_camera_imu_estimated;
   imu["R_camera_imu_sigma_deg"] = in.R_camera_imu_sigma_deg;
   imu["hand_eye_pairs"] = in.hand_eye_pairs;
+  if (!in.R_camera_imu_estimated) {
+    imu["camera_imu_check"] = {{"disagrees", in.R_camera_imu_disagrees},
+                               {"angle_deg", in.R_camera_imu_disagreement_deg},
+                               {"R_camera_imu_xyzw",
+                                {in.R_camera_imu_check.x(), in.R_camera_imu_check.y(),
+                                 in.R_camera_imu_check.z(), in.R_camera_imu_check.w()}}};
+  }
   return imu;
 }
 

@@ -13,6 +13,8 @@
 #include <sstream>
 #include <string>
 
+#include "../../tools/overview_image.hpp"
+#include "../support/picture_stats.hpp"
 #include "../support/synth_config.hpp"
 #include "imufusion/image_io.hpp"
 #include "imufusion/mesh.hpp"
@@ -73,6 +75,13 @@ TEST_F(FuseTool, FusesASyntheticRoomIntoAnAccurateMesh) {
   auto preview = read_color_image(out / "preview.png");
   ASSERT_TRUE(preview.ok());
   EXPECT_EQ(preview->width, 160);
+  EXPECT_GT(test::coloured_pixels(*preview), 160u * 120u / 4);  // the room's colours
+  // The overview: the model fills it, the known poses' path is drawn in the tracked colour.
+  auto overview = read_color_image(out / "overview.png");
+  ASSERT_TRUE(overview.ok());
+  EXPECT_GT(test::non_black_fraction(*overview), 0.15);  // ~0.2: a short scan sees part of the room
+  EXPECT_GT(test::pixels_of(*overview, tools::kTrackedPathColor), 30u);
+  EXPECT_EQ(test::pixels_of(*overview, tools::kLostPathColor), 0u);
 
   std::ifstream in(out / "summary.json");
   const nlohmann::json summary = nlohmann::json::parse(in);

@@ -13,6 +13,9 @@
 #include <string>
 #include <vector>
 
+#include "../../tools/model_outputs.hpp"
+#include "../support/picture_stats.hpp"
+#include "imufusion/image_io.hpp"
 #include "imufusion/mesh.hpp"
 #include "imufusion/reconstructor.hpp"
 #include "imufusion/synth.hpp"
@@ -92,6 +95,19 @@ TEST_F(ScanTool, ScansARoomWithTheImuAndWritesEveryOutput) {
   auto trajectory = read_trajectory(out / "trajectory.txt");
   ASSERT_TRUE(trajectory.ok()) << trajectory.error().describe();
   EXPECT_EQ(trajectory->size(), 36u);
+
+  // The pictures: the preview in the room's colours, the overview filled by the model with the
+  // tracked path drawn on it and no lost stretch.
+  auto preview = read_color_image(out / "preview.png");
+  ASSERT_TRUE(preview.ok()) << preview.error().describe();
+  EXPECT_GT(test::coloured_pixels(*preview), 160u * 120u / 4);
+  auto overview = read_color_image(out / "overview.png");
+  ASSERT_TRUE(overview.ok()) << overview.error().describe();
+  EXPECT_EQ(overview->width, tools::kOverviewWidth);
+  EXPECT_GT(test::non_black_fraction(*overview), 0.15);  // ~0.2: a short scan sees part of the room
+  EXPECT_GT(test::coloured_pixels(*overview), 640u * 480u / 10);
+  EXPECT_GT(test::pixels_of(*overview, tools::kTrackedPathColor), 30u);
+  EXPECT_EQ(test::pixels_of(*overview, tools::kLostPathColor), 0u);
 
   const auto summary = read_json(out / "summary.json");
   EXPECT_EQ(summary["frames"], 36);
