@@ -24,10 +24,8 @@ struct IcpTracker::Impl {
 
   Status preprocess(int slot, const DepthImage& depth, std::vector<KernelTiming>* timings) {
     gpu::Preprocessor& frame = frames[static_cast<std::size_t>(slot)];
-    IMUFUSION_RETURN_IF_ERROR(frame.upload(depth));
-    IMUFUSION_RETURN_IF_ERROR(preprocess_seq.begin());
-    frame.record(preprocess_seq);
-    auto t = preprocess_seq.submit_and_wait();
+    IMUFUSION_RETURN_IF_ERROR(frame.submit(preprocess_seq, depth));
+    auto t = preprocess_seq.wait();
     if (!t) return t.error();
     if (timings != nullptr) timings->insert(timings->end(), t->begin(), t->end());
     return {};

@@ -101,6 +101,13 @@ Result<Preprocessor> Preprocessor::create(std::shared_ptr<Context> context,
   return p;
 }
 
+Status Preprocessor::submit(CommandSequence& seq, const DepthView& depth, int first_map_level) {
+  IMUFUSION_RETURN_IF_ERROR(upload(depth));
+  IMUFUSION_RETURN_IF_ERROR(seq.begin());
+  record(seq, first_map_level);
+  return seq.submit();
+}
+
 Status Preprocessor::upload(const DepthView& depth) {
   const Intrinsics& k = levels_.front();
   if (Status s = depth.check(k.width, k.height); !s.ok())
@@ -288,10 +295,8 @@ Result<DepthPreprocessor> DepthPreprocessor::create(const PreprocessConfig& conf
 }
 
 Result<PreprocessedFrame> DepthPreprocessor::process(const DepthView& depth) {
-  IMUFUSION_RETURN_IF_ERROR(impl_->kernels.upload(depth));
-  IMUFUSION_RETURN_IF_ERROR(impl_->seq.begin());
-  impl_->kernels.record(impl_->seq);
-  auto timings = impl_->seq.submit_and_wait();
+  IMUFUSION_RETURN_IF_ERROR(impl_->kernels.submit(impl_->seq, depth));
+  auto timings = impl_->seq.wait();
   if (!timings) return timings.error();
   auto frame = impl_->kernels.download();
   if (!frame) return frame.error();

@@ -40,6 +40,9 @@ class Preprocessor {
   void record(CommandSequence& seq, int first_map_level = 0) const;
   /// Number of dispatches record() adds.
   std::uint32_t dispatch_count() const;
+  /// The one preprocessing path: upload(), then record() into `seq` and submit it without
+  /// waiting (seq.wait() returns the kernels' timings; later submissions see the results).
+  Status submit(CommandSequence& seq, const DepthView& depth, int first_map_level = 0);
   /// Copies the results of the last submitted run to the host.
   Result<PreprocessedFrame> download() const;
 

@@ -40,11 +40,9 @@ Status Reconstructor::Impl::preprocess(const DepthView& depth, const ColorView* 
                                        FrameTimings& timings) {
   IMUFUSION_RETURN_IF_ERROR(finish_preprocess(timings));  // its buffers are written again here
   const auto t0 = Clock::now();
-  IMUFUSION_RETURN_IF_ERROR(current.upload(depth));
+  // The colour is read by fusion, a later submission.
   if (rgb != nullptr) IMUFUSION_RETURN_IF_ERROR(gpu::upload_rgba(*rgb, color, rgba));
-  IMUFUSION_RETURN_IF_ERROR(preprocess_seq.begin());
-  current.record(preprocess_seq, tracking_level);
-  IMUFUSION_RETURN_IF_ERROR(preprocess_seq.submit());
+  IMUFUSION_RETURN_IF_ERROR(current.submit(preprocess_seq, depth, tracking_level));
   timings.preprocess_ms += ms_since(t0);
   return {};
 }
