@@ -83,15 +83,24 @@ std::string describe_array(const py::handle& value) {
   return std::string(py::str(array.dtype())) + " array of shape " + shape_text(array);
 }
 
-DepthImage depth_from_array(const py::handle& value, double depth_scale, const char* name) {
+// A depth array as both readers take it: (H, W) uint16 raw units, or float32/float64 metres
+// (`metres` set), with a positive finite depth_scale; ValueError naming `name` otherwise.
+py::array checked_depth_array(const py::handle& value, double depth_scale, const char* name,
+                              bool& metres) {
   const std::string expected = "a uint16 (raw units) or float32 (metres) array of shape (H, W)";
   py::array array = as_array(value, name, expected);
-  const bool metres = has_dtype<float>(array) || has_dtype<double>(array);
+  metres = has_dtype<float>(array) || has_dtype<double>(array);
   if (array.ndim() != 2 || !(metres || has_dtype<std::uint16_t>(array)))
     bad_array(name, expected, value);
   if (!(depth_scale > 0) || !std::isfinite(depth_scale))
     throw py::value_error(std::string(name) + ": depth_scale must be positive, got " +
                           std::to_string(depth_scale));
+  return array;
+}
+
+DepthImage depth_from_array(const py::handle& value, double depth_scale, const char* name) {
+  bool metres = false;
+  py::array array = checked_depth_array(value, depth_scale, name, metres);
   DepthImage image;
   image.height = static_cast<int>(array.shape(0));
   image.width = static_cast<int>(array.shape(1));
@@ -142,14 +151,8 @@ py::array with_packed_rows(const py::array& array, py::ssize_t pixel_bytes) {
 
 ArrayView<DepthView> depth_view_of_array(const py::handle& value, double depth_scale,
                                          const char* name) {
-  const std::string expected = "a uint16 (raw units) or float32 (metres) array of shape (H, W)";
-  py::array array = as_array(value, name, expected);
-  const bool metres = has_dtype<float>(array) || has_dtype<double>(array);
-  if (array.ndim() != 2 || !(metres || has_dtype<std::uint16_t>(array)))
-    bad_array(name, expected, value);
-  if (!(depth_scale > 0) || !std::isfinite(depth_scale))
-    throw py::value_error(std::string(name) + ": depth_scale must be positive, got " +
-                          std::to_string(depth_scale));
+  bool metres = false;
+  py::array array = checked_depth_array(value, depth_scale, name, metres);
   const int h = static_cast<int>(array.shape(0)), w = static_cast<int>(array.shape(1));
   if (metres) {
     const py::array floats =
