@@ -204,7 +204,10 @@ Result<std::optional<IntegrationStats>> TsdfVolume::finish_integrate() {
   // Host-visible: the download is a copy from mapped memory and cannot fail once mapped.
   (void)counters_readback_.download(counters, sizeof(counters));
   const std::uint32_t allocated = counters[VOLUME_COUNTER_ALLOCATED];
-  largest_frame_blocks_ = std::max(largest_frame_blocks_, allocated - allocated_counter_);
+  // The first frame into an empty volume finds all its surface new; the frames after it, only
+  // what the camera uncovers: they set the headroom.
+  if (allocated_counter_ > 0)
+    largest_frame_blocks_ = std::max(largest_frame_blocks_, allocated - allocated_counter_);
   allocated_counter_ = allocated;
   if (allocated > pool_blocks_ && pool_blocks_ < config_.block_capacity) {
     // The integration pass deferred: the frame's blocks have no storage yet, nothing was fused.

@@ -2,8 +2,8 @@
 // The sparse TSDF block volume on the GPU: hash table, block pool, allocation, integration,
 // raycast, and the download of a host snapshot. The pool starts at VolumeConfig::initial_blocks
 // and grows on the device (the blocks copied into larger buffers) up to block_capacity: ahead of
-// need by the most blocks one frame has added so far, and when a frame still overflows it, that
-// frame fuses nothing, the pool grows and the frame is recorded again. The hash table keeps its
+// need by the most blocks one frame has added to a non-empty volume so far, and when a frame
+// still overflows it, that frame fuses nothing, the pool grows and the frame is recorded again. The hash table keeps its
 // size: hash_slots >= block_capacity bounds its load factor.
 
 #include <algorithm>
@@ -119,7 +119,8 @@ class TsdfVolume {
   // VOLUME_COUNTER_ALLOCATED as last read: blocks asked for, which may pass the pool.
   std::uint32_t allocated_counter_ = 0;
   std::uint32_t pool_blocks_ = 0, pool_growths_ = 0;
-  // The most blocks one frame has added: the headroom kept when growing ahead of need.
+  // The most blocks one frame has added to a volume that was not empty: the headroom kept when
+  // growing ahead of need.
   std::uint32_t largest_frame_blocks_ = 0;
 };
 
