@@ -424,6 +424,7 @@ const DeviceInfo& Reconstructor::device() const { return impl_->context->info();
 int Reconstructor::tracking_level() const { return impl_->tracking_level; }
 std::uint32_t Reconstructor::allocated_blocks() const { return impl_->volume.allocated_blocks(); }
 std::uint32_t Reconstructor::pool_blocks() const { return impl_->volume.pool_blocks(); }
+std::uint32_t Reconstructor::pool_growths() const { return impl_->volume.pool_growths(); }
 std::uint64_t Reconstructor::memory_bytes() const { return impl_->volume.reserved_bytes(); }
 std::uint32_t Reconstructor::validation_error_count() const {
   return impl_->context->validation_error_count();
