@@ -241,10 +241,15 @@ Status TsdfVolume::reserve_blocks(std::uint32_t blocks) {
                                                        " blocks: the volume's block_capacity is " +
                                                        std::to_string(config_.block_capacity));
   const VkDeviceSize bytes = VkDeviceSize{blocks} * kBlockVoxels * 4;
+  const auto growing = [&](Error e) {
+    e.message = "growing the TSDF block pool to " + std::to_string(blocks) + " blocks (" +
+                std::to_string((2 * bytes) >> 20) + " MiB): " + e.message;
+    return e;
+  };
   auto tsdf_weight = Buffer::create(context_, bytes);
-  if (!tsdf_weight) return tsdf_weight.error();
+  if (!tsdf_weight) return growing(tsdf_weight.error());
   auto colors = Buffer::create(context_, bytes);
-  if (!colors) return colors.error();
+  if (!colors) return growing(colors.error());
   IMUFUSION_RETURN_IF_ERROR(seq_.begin());
   for (auto [from, to] : {std::pair{&tsdf_weight_, &*tsdf_weight}, {&voxel_colors_, &*colors}}) {
     seq_.fill(*to, 0, "volume_pool_clear");
@@ -257,7 +262,7 @@ Status TsdfVolume::reserve_blocks(std::uint32_t blocks) {
     seq_.dispatch(grow_, {&values_, &block_slots_}, p, p.count, 1, "volume_pool_grow");
   }
   auto t = seq_.submit_and_wait();
-  if (!t) return t.error();
+  if (!t) return growing(t.error());
   tsdf_weight_ = std::move(*tsdf_weight);
   voxel_colors_ = std::move(*colors);
   pool_blocks_ = blocks;
