@@ -3,8 +3,8 @@
 // raycast, and the download of a host snapshot. The pool starts at VolumeConfig::initial_blocks
 // and grows on the device (the blocks copied into larger buffers) up to block_capacity: ahead of
 // need by the most blocks one frame has added to a non-empty volume so far, and when a frame
-// still overflows it, that frame fuses nothing, the pool grows and the frame is recorded again. The hash table keeps its
-// size: hash_slots >= block_capacity bounds its load factor.
+// still overflows it, that frame fuses nothing, the pool grows and the frame is recorded again.
+// The hash table keeps its size: hash_slots >= block_capacity bounds its load factor.
 
 #include <algorithm>
 #include <memory>
