@@ -179,10 +179,19 @@ int main(int argc, char** argv) {
   std::printf("  %-17s %8.2f ms (CPU, %zu blocks -> %zu triangles)\n", "marching cubes", mesh_ms,
               snapshot->blocks.size(), mesh->triangles.size());
   std::printf(
-      "  blocks allocated %u, voxel memory in use %.1f MiB (8 bytes per voxel), pool + table %.1f "
-      "MiB, pool-full events %llu\n",
+      "  blocks allocated %u, voxel memory in use %.1f MiB (8 bytes per voxel), pool of %u blocks "
+      "after %u growths + table %.1f MiB, pool-full events %llu\n",
       volume.allocated_blocks(), volume.allocated_blocks() * 512.0 * 8 / (1024 * 1024),
-      double(volume.config().reserved_bytes()) / (1024 * 1024),
+      volume.pool_blocks(), volume.pool_growths(), double(volume.reserved_bytes()) / (1024 * 1024),
       static_cast<unsigned long long>(bench->pool_full));
+  // One more growth step of the final pool, half again its size: new buffers, the copy on the
+  // device and the wait.
+  const std::uint32_t from = volume.pool_blocks();
+  const std::uint32_t to = std::min(config.block_capacity, from + from / 2);
+  const auto g0 = std::chrono::steady_clock::now();
+  if (!bench->volume.reserve_blocks(to)) return 1;
+  std::printf(
+      "  growth step %u -> %u blocks: %.2f ms\n", from, to,
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - g0).count());
   return 0;
 }

@@ -37,9 +37,8 @@ void insert(ivec3 b) {
       k = atomicCompSwap(keys[slot], VOLUME_EMPTY_KEY, key);
       if (k == VOLUME_EMPTY_KEY) {
         uint index = atomicAdd(counters[VOLUME_COUNTER_ALLOCATED], 1u);
-        bool stored = index < p.block_capacity;
-        values[slot] = stored ? index : VOLUME_NO_BLOCK;
-        if (stored) block_slots[index] = slot;
+        values[slot] = index < p.pool_blocks ? index : VOLUME_NO_BLOCK;
+        if (index < p.max_blocks) block_slots[index] = slot;
         mark_visible(slot);
         return;
       }

@@ -17,7 +17,7 @@ void main() {
   args[VOLUME_ARGS_INTEGRATE] = x;
   args[VOLUME_ARGS_INTEGRATE + 1] = x == 0u ? 0u : (listed + x - 1u) / x;
   args[VOLUME_ARGS_INTEGRATE + 2] = 1u;
-  uint blocks = min(counters[VOLUME_COUNTER_ALLOCATED], p.block_capacity);
+  uint blocks = min(counters[VOLUME_COUNTER_ALLOCATED], p.pool_blocks);
   args[VOLUME_ARGS_RANGE] = (blocks + uint(VOLUME_RANGE_GROUP) - 1u) / uint(VOLUME_RANGE_GROUP);
   args[VOLUME_ARGS_RANGE + 1] = 1u;
   args[VOLUME_ARGS_RANGE + 2] = 1u;

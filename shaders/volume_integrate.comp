@@ -19,6 +19,7 @@ layout(push_constant) uniform Push { VolumeIntegrateParams p; };
 #include "volume_common.glsl"
 
 void main() {
+  if (counters[VOLUME_COUNTER_ALLOCATED] > p.defer_above) return;
   uint entry = gl_WorkGroupID.x + gl_NumWorkGroups.x * gl_WorkGroupID.y;
   if (entry >= counters[VOLUME_COUNTER_VISIBLE]) return;
   uint slot = visible[entry];

@@ -28,7 +28,7 @@ void include_point(vec3 q) {
 
 void main() {
   uint i = gl_GlobalInvocationID.x;
-  if (i >= min(counters[VOLUME_COUNTER_ALLOCATED], p.block_capacity)) return;
+  if (i >= min(counters[VOLUME_COUNTER_ALLOCATED], p.pool_blocks)) return;
   ivec3 b = unpack_key(keys[block_slots[i]]);
   mat3 R = mat3(p.r00, p.r10, p.r20, p.r01, p.r11, p.r21, p.r02, p.r12, p.r22);
   vec3 t = vec3(p.tx, p.ty, p.tz);

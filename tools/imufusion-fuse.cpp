@@ -176,6 +176,7 @@ nlohmann::json summary_json(const Options& opt, const Reconstructor& rec, const 
   summary["voxel_size"] = rec.config().volume.voxel_size;
   summary["truncation"] = rec.config().volume.truncation();
   summary["blocks_allocated"] = rec.allocated_blocks();
+  summary["pool_blocks_reserved"] = rec.pool_blocks();
   summary["volume_bytes"] = rec.memory_bytes();
   summary["bytes_per_voxel"] = 8;
   summary["pool_full_events"] = run.pool_full;
@@ -264,9 +265,10 @@ int main(int argc, char** argv) {
   if (*triangles == 0) return fail("the fused volume holds no surface (no triangles)");
   if (auto s = outputs->commit(); !s) return fail(s.error().describe());
   std::printf(
-      "fused %zu of %zu frames on %s: %u blocks (%.1f MiB of volume), mesh %zu triangles -> %s\n",
+      "fused %zu of %zu frames on %s: %u blocks of a pool of %u (%.1f MiB of volume), mesh %zu "
+      "triangles -> %s\n",
       run.fused, run.frames, rec->device().name.c_str(), rec->allocated_blocks(),
-      double(rec->memory_bytes()) / (1024.0 * 1024.0), *triangles,
+      rec->pool_blocks(), double(rec->memory_bytes()) / (1024.0 * 1024.0), *triangles,
       outputs->final_path("mesh.glb").string().c_str());
   if (summary.contains("mesh_completeness"))
     std::printf("mesh vs true surface: accuracy %.2f mm mean, completeness %.1f%% within %.0f mm\n",

@@ -109,6 +109,7 @@ ReconstructorConfig make_config(const ScanOptions& opt, const SequenceReader* re
   ReconstructorConfig config = preset_config(SensorPreset::kKinect, k, with_imu);
   config.volume.voxel_size = opt.voxel_size;
   config.volume.block_capacity = opt.block_capacity;
+  config.volume.initial_blocks = opt.initial_blocks;
   config.tracking_level = opt.tracking_level;
   // The hash table keeps at least 4 slots per block, as the defaults do.
   while (config.volume.hash_slots < 4ull * opt.block_capacity) config.volume.hash_slots *= 2;

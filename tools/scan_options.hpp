@@ -32,6 +32,7 @@ struct ScanOptions {
   int recovery_frames = TrackingConfig{}.recovery_frames;
   float voxel_size = 0.01f;
   std::uint32_t block_capacity = VolumeConfig{}.block_capacity;
+  std::uint32_t initial_blocks = VolumeConfig{}.initial_blocks;
   int tracking_level = ReconstructorConfig{}.tracking_level;
   long max_frames = -1;  // scanned (kept) frames at most; -1: all
   std::size_t frame_step = 1;
@@ -57,7 +58,8 @@ inline int scan_usage(std::ostream& out, int code) {
          "WxH@FPS]\n"
          "                      [--realtime] [--imu-udp PORT] [--imu-udp-address ADDR] [--record "
          "DIR]\n"
-         "                      [--frame-step N] [--block-capacity N] [--tracking-level N]\n"
+         "                      [--frame-step N] [--block-capacity N] [--initial-blocks N]\n"
+         "                      [--tracking-level N]\n"
          "Scans SEQUENCE, a camera (openni2:// or openni2://URI) or a recording (FILE.oni) "
          "(default:\n"
          "the embedded demo room, synthesized into --demo-dir, default ./demo) and writes DIR "
@@ -85,10 +87,15 @@ inline int scan_usage(std::ostream& out, int code) {
       << ImuUdpOptions{}.address
       << ")\n"
          "  --record DIR             write the session's frames and IMU as a sequence into DIR\n"
-         "  --block-capacity N       TSDF blocks the volume holds (8^3 voxels, 4 KiB each; default "
+         "  --block-capacity N       TSDF blocks the volume may grow to (8^3 voxels, 4 KiB each;\n"
+         "                           default "
       << VolumeConfig{}.block_capacity
       << ");\n"
          "                           beyond them new surface is not fused (frames.csv pool_full)\n"
+         "  --initial-blocks N       TSDF blocks the pool holds at first; it grows as the scene\n"
+         "                           needs (default "
+      << VolumeConfig{}.initial_blocks
+      << ")\n"
          "  --tracking-level N       pyramid level of ICP and the model raycast: 0 full size, 1 "
          "half\n"
          "                           (default: 1 on a CPU device, 0 on a GPU); fusion takes the "
@@ -155,6 +162,9 @@ inline int parse_scan_value(const std::string& a, const std::string& v, ScanOpti
   } else if (a == "--block-capacity") {
     if (!integer || *integer < 1 || *integer > (1 << 21)) return bad("a count 1..2097152");
     opt.block_capacity = static_cast<std::uint32_t>(*integer);
+  } else if (a == "--initial-blocks") {
+    if (!integer || *integer < 1 || *integer > (1 << 21)) return bad("a count 1..2097152");
+    opt.initial_blocks = static_cast<std::uint32_t>(*integer);
   } else if (a == "--voxel-size") {
     const auto m = parse_number(v);
     if (!m || *m < 0.001 || *m > 0.5) return bad("metres in [0.001, 0.5]");

@@ -130,6 +130,8 @@ inline void write_frame_counts(const ScanStatistics& stats, const Reconstructor&
   j["block_capacity"] = rec.config().volume.block_capacity;
   j["pool_full_frames"] = stats.pool_full_frames;
   if (stats.pool_full_frames > 0) j["first_pool_full_frame"] = stats.first_pool_full_frame;
+  j["pool_blocks_reserved"] = rec.pool_blocks();
+  j["pool_growths"] = rec.pool_growths();
   j["volume_bytes_reserved"] = rec.memory_bytes();
 }
 

@@ -38,8 +38,10 @@ void bind_parts(py::module_& m) {
       .def_readwrite("voxel_size", &VolumeConfig::voxel_size, "metres (default 0.01)")
       .def_readwrite("truncation_voxels", &VolumeConfig::truncation_voxels, "default 4")
       .def_readwrite("max_weight", &VolumeConfig::max_weight, "observations (default 128)")
+      .def_readwrite("initial_blocks", &VolumeConfig::initial_blocks,
+                     "blocks the pool holds at first; it grows to block_capacity")
       .def_readwrite("block_capacity", &VolumeConfig::block_capacity,
-                     "8^3-voxel blocks, 4 KiB each")
+                     "8^3-voxel blocks the pool may hold, 4 KiB each")
       .def_readwrite("hash_slots", &VolumeConfig::hash_slots, "a power of two above the capacity");
   py::class_<TrackingConfig>(m, "TrackingConfig")
       .def_readwrite("recovery_frames", &TrackingConfig::recovery_frames,

@@ -176,6 +176,8 @@ void bind_scanner(py::module_& m) {
       .def_property_readonly("device", [](const Reconstructor& self) { return self.device().name; })
       .def_property_readonly("tracking_level", &Reconstructor::tracking_level)
       .def_property_readonly("allocated_blocks", &Reconstructor::allocated_blocks)
+      .def_property_readonly("pool_blocks", &Reconstructor::pool_blocks)
+      .def_property_readonly("pool_growths", &Reconstructor::pool_growths)
       .def_property_readonly("memory_bytes", &Reconstructor::memory_bytes);
   bind_frames(c);
   bind_outputs(c);

@@ -136,7 +136,8 @@ struct IcpReduceParams {
 // slot touched is appended once per frame (visibility stamp) to the visible list, which has one
 // entry per hash slot: a slot whose block found no pool storage is listed too, so no race with
 // its inserter can push a stored block off the list. The inserter of a block that got pool index
-// i writes block_slots[i] = its slot.
+// i writes block_slots[i] = its slot (i < max_blocks); the block has storage when i < pool_blocks,
+// and otherwise keeps VOLUME_NO_BLOCK until the pool grows (volume_pool_grow).
 struct VolumeAllocateParams {
   uint width;
   uint height;
@@ -150,8 +151,9 @@ struct VolumeAllocateParams {
   float voxel_size;   // metres
   float truncation;   // metres
   uint hash_mask;     // hash_slots - 1
-  uint block_capacity;
+  uint pool_blocks;   // blocks the pool holds now
   uint frame_stamp;   // > 0, new every frame
+  uint max_blocks;    // blocks the pool may grow to (block_slots entries)
 };
 
 // volume_dispatch_args: one invocation turns the counters into the workgroup counts of the
@@ -164,7 +166,7 @@ struct VolumeAllocateParams {
 #define VOLUME_INTEGRATE_GROUPS_X 32768
 #define VOLUME_RANGE_GROUP 64
 struct VolumeArgsParams {
-  uint block_capacity;
+  uint pool_blocks;  // blocks the pool holds now
 };
 
 // volume_integrate: one workgroup per visible-list entry (counters[VOLUME_COUNTER_VISIBLE]; a
@@ -185,11 +187,20 @@ struct VolumeIntegrateParams {
   float voxel_size;
   float truncation;
   uint max_weight;
-  uint has_color;  // 1: colour (RGBA8 per pixel) is bound and averaged too
+  uint has_color;    // 1: colour (RGBA8 per pixel) is bound and averaged too
+  uint defer_above;  // when the frame left more blocks allocated than this (a pool that can still
+                     // grow overflowed), nothing is fused: the pool grows and the frame is redone
+};
+
+// volume_pool_grow: after the pool grew to hold blocks [first, first + count) that a frame was
+// refused, each such block's hash slot (block_slots[i]) gets its pool index i.
+struct VolumePoolGrowParams {
+  uint first;
+  uint count;
 };
 
 // volume_raycast_range: one invocation per pool block in use (block_slots[0..n), n the allocation
-// counter capped at block_capacity): the part of
+// counter capped at pool_blocks): the part of
 // the block at z >= near_depth is projected with the raycast pose, and every range cell (a tile
 // of VOLUME_RANGE_TILE^2 pixels) whose pixel centres its bounding box may cover gets the block's
 // z-depth interval (widened by half a voxel). range[2 c] = max over blocks of ~bits(z_min) (0:
@@ -209,7 +220,7 @@ struct VolumeRangeParams {
   float voxel_size;
   float near_depth;   // metres of z-depth
   uint range_width;   // cells per row: ceil(width / VOLUME_RANGE_TILE)
-  uint block_capacity;
+  uint pool_blocks;   // blocks the pool holds now
 };
 
 // volume_raycast: per pixel, march the ray from near to far by the rule of

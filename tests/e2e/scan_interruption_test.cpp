@@ -175,10 +175,11 @@ TEST_F(ScanInterruption, AnUnwritableOutFailsBeforeTheScan) {
   EXPECT_FALSE(fs::exists(path("rec"))) << "the scan ran before --out was found unwritable";
 }
 
+// The pool starts below its capacity, grows to it, and then reports as one that started there.
 TEST_F(ScanInterruption, AFullBlockPoolIsReported) {
   const fs::path room = synthesize(scratch_.path(), "room", 8, 69);
-  const auto run =
-      scan(room.string() + " --out " + path("out").string() + " --block-capacity 200 --quiet");
+  const auto run = scan(room.string() + " --out " + path("out").string() +
+                        " --block-capacity 200 --initial-blocks 50 --quiet");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.err.find("block pool"), std::string::npos) << run.err;
   const auto summary = read_json(path("out") / "summary.json");
@@ -188,10 +189,15 @@ TEST_F(ScanInterruption, AFullBlockPoolIsReported) {
   const std::string header = csv.substr(0, csv.find('\n'));
   EXPECT_NE(header.find(",pool_full,"), std::string::npos) << header;
   EXPECT_EQ(summary["blocks_allocated"], 200);
+  EXPECT_EQ(summary["pool_blocks_reserved"], 200);
+  EXPECT_GT(summary["pool_growths"].get<int>(), 0);
   // The default pool holds the room: nothing is refused.
   const auto roomy = scan(room.string() + " --out " + path("roomy").string() + " --quiet");
   ASSERT_EQ(roomy.exit_code, 0) << roomy.err;
-  EXPECT_EQ(read_json(path("roomy") / "summary.json")["pool_full_frames"], 0);
+  const auto roomy_summary = read_json(path("roomy") / "summary.json");
+  EXPECT_EQ(roomy_summary["pool_full_frames"], 0);
+  EXPECT_GE(roomy_summary["pool_blocks_reserved"].get<int>(),
+            roomy_summary["blocks_allocated"].get<int>());
   EXPECT_EQ(roomy.err.find("block pool"), std::string::npos) << roomy.err;
 }
 

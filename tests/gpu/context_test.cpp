@@ -150,7 +150,7 @@ TEST_F(GpuTest, IndirectDispatchTakesItsCountsFromTheGpu) {
   ASSERT_TRUE(pipeline.ok() && counters.ok() && args.ok() && ones.ok() && seq.ok());
   for (const std::uint32_t capacity : {100000u, 1000u}) {
     gpu::layout::VolumeArgsParams p{};
-    p.block_capacity = capacity;
+    p.pool_blocks = capacity;
     ASSERT_TRUE(seq->begin().ok());
     seq->fill(*counters, 70000, "counters");  // 70000 listed slots and allocated blocks
     seq->fill(*ones, 1, "one group");

@@ -106,38 +106,46 @@ void expect_touched_blocks_reported(const IntegrationStats& stats, GpuVolume& gp
               budget(touched.size()));
 }
 
+// A pool that starts at the capacity, and one that starts below it and grows to it in the first
+// frame: at the capacity both report alike.
 TEST_F(GpuTest, VolumeFullPoolReportsAndKeepsStoredBlocksCorrect) {
   const Intrinsics k = synth::default_intrinsics(97, 61);
   VolumeConfig config = small_config();
   config.block_capacity = 64;  // the objects need hundreds
   config.hash_slots = 16384;   // keys of blocks refused storage stay in the table: room for all
   const synth::Scene scene = objects_scene();
-  auto gpu_volume = GpuVolume::create(context_, config, k);
-  ASSERT_TRUE(gpu_volume.has_value());
-  GpuVolume& gpu = *gpu_volume;
-  std::vector<Frame> frames;
-  // The same view twice, then another. Blocks refused storage keep their key in the table (with
-  // no pool index); seen again they are refused again, and must not take the place of blocks
-  // that have storage.
-  for (double angle : {0.0, 0.0, 0.2}) {
-    frames.push_back(make_frame(scene, orbit_pose(angle), k, true));
-    const IntegrationStats stats = gpu.integrate(frames.back());
-    EXPECT_EQ(stats.table_full, 0u);
-    EXPECT_EQ(stats.allocated_blocks, config.block_capacity);
-    expect_touched_blocks_reported(stats, gpu, config, frames.back(), k);
-    expect_stored_blocks_correct(gpu, config, frames, k);
+  for (const std::uint32_t initial : {64u, 8u}) {
+    config.initial_blocks = initial;
+    auto gpu_volume = GpuVolume::create(context_, config, k);
+    ASSERT_TRUE(gpu_volume.has_value());
+    GpuVolume& gpu = *gpu_volume;
+    std::vector<Frame> frames;
+    // The same view twice, then another. Blocks refused storage keep their key in the table
+    // (with no pool index); seen again they are refused again, and must not take the place of
+    // blocks that have storage.
+    for (double angle : {0.0, 0.0, 0.2}) {
+      frames.push_back(make_frame(scene, orbit_pose(angle), k, true));
+      const IntegrationStats stats = gpu.integrate(frames.back());
+      EXPECT_EQ(stats.table_full, 0u);
+      EXPECT_EQ(stats.allocated_blocks, config.block_capacity);
+      EXPECT_EQ(gpu.volume.pool_blocks(), config.block_capacity) << "initial " << initial;
+      expect_touched_blocks_reported(stats, gpu, config, frames.back(), k);
+      expect_stored_blocks_correct(gpu, config, frames, k);
+    }
   }
 }
 
 // The frame that fills the pool: thousands of insertions race for 256 pool blocks. Every stored
 // block was touched by this first frame, so all of them must be fused, none pushed off the
-// visible list by a refused block, and every refused block reported.
+// visible list by a refused block, and every refused block reported; alike when the pool starts
+// smaller and the frame, deferred, is fused again once the pool has grown to the capacity.
 TEST_F(GpuTest, VolumeFrameThatFillsThePoolFusesEveryStoredBlock) {
   const Intrinsics k = synth::default_intrinsics(320, 240);
   VolumeConfig config = small_config();
   config.block_capacity = 256;
   const synth::Scene scene = objects_scene();
   for (double angle : {0.0, 0.7, 1.4}) {
+    config.initial_blocks = angle == 0.7 ? 256 : 40;
     auto gpu_volume = GpuVolume::create(context_, config, k);
     ASSERT_TRUE(gpu_volume.has_value());
     GpuVolume& gpu = *gpu_volume;
@@ -261,18 +269,25 @@ TEST_F(GpuTest, VolumeMemoryIsEightBytesPerVoxel) {
   VolumeConfig config = small_config();
   config.block_capacity = 96;
   config.hash_slots = 256;
-  ReconstructorConfig scanner;
-  scanner.intrinsics = synth::default_intrinsics(97, 61);
-  scanner.volume = config;
-  auto fusion = Reconstructor::create(scanner);
-  ASSERT_TRUE(fusion.ok()) << fusion.error().describe();
-  // Pool: two 32-bit words per voxel and the hash slot of each block. Table: key, value and
-  // visibility stamp per slot. Visible list: one entry per slot.
-  const std::uint64_t pool = std::uint64_t{config.block_capacity} * (kBlockVoxels * 8 + 4);
-  const std::uint64_t table = std::uint64_t{config.hash_slots} * 3 * 4;
-  const std::uint64_t visible = std::uint64_t{config.hash_slots} * 4;
-  EXPECT_EQ(fusion->memory_bytes(), pool + table + visible);
-  EXPECT_EQ(fusion->validation_error_count(), 0u);
+  for (const std::uint32_t initial : {32u, 96u, 1000u}) {
+    config.initial_blocks = initial;
+    ReconstructorConfig scanner;
+    scanner.intrinsics = synth::default_intrinsics(97, 61);
+    scanner.volume = config;
+    auto fusion = Reconstructor::create(scanner);
+    ASSERT_TRUE(fusion.ok()) << fusion.error().describe();
+    // Pool: two 32-bit words per voxel of the blocks it holds now (at most the capacity), and
+    // the hash slot of each block up to the capacity. Table: key, value and visibility stamp per
+    // slot. Visible list: one entry per slot.
+    const std::uint32_t held = std::min(initial, config.block_capacity);
+    EXPECT_EQ(fusion->pool_blocks(), held);
+    const std::uint64_t pool =
+        std::uint64_t{held} * kBlockVoxels * 8 + std::uint64_t{config.block_capacity} * 4;
+    const std::uint64_t table = std::uint64_t{config.hash_slots} * 3 * 4;
+    const std::uint64_t visible = std::uint64_t{config.hash_slots} * 4;
+    EXPECT_EQ(fusion->memory_bytes(), pool + table + visible);
+    EXPECT_EQ(fusion->validation_error_count(), 0u);
+  }
 }
 
 }  // namespace

@@ -250,7 +250,12 @@ class Reconstructor {
   /// The pyramid level ICP and the model raycast run at (ReconstructorConfig::tracking_level,
   /// resolved for the device).
   int tracking_level() const;
+  /// Blocks of the TSDF volume that hold voxels, those its pool holds room for now (it grows as
+  /// the scene needs, up to VolumeConfig::block_capacity), and how many times it grew.
   std::uint32_t allocated_blocks() const;
+  std::uint32_t pool_blocks() const;
+  std::uint32_t pool_growths() const;
+  /// Device memory the TSDF volume reserves now (bytes, VolumeConfig::reserved_bytes).
   std::uint64_t memory_bytes() const;
   std::uint32_t validation_error_count() const;
 

@@ -25,14 +25,19 @@ struct VolumeConfig {
   float voxel_size = 0.01f;                 // metres
   float truncation_voxels = 4.0f;           // truncation band, in voxels (default ~4)
   int max_weight = 128;                     // running-average weight cap (observations)
-  std::uint32_t block_capacity = 1u << 16;  // blocks in the pool: 4 KiB each (8 bytes per voxel)
-  std::uint32_t hash_slots = 1u << 18;      // hash-table slots (a power of two, > capacity)
+  std::uint32_t initial_blocks = 4096;      // blocks the pool holds at first (16 MiB); it grows
+                                            // on the device as the scene needs, to block_capacity
+  std::uint32_t block_capacity = 1u << 16;  // most blocks the pool may hold: 4 KiB each (8 bytes
+                                            // per voxel); past them new surface is not fused
+  std::uint32_t hash_slots = 1u << 18;      // hash-table slots (a power of two, >= capacity)
 
   float truncation() const { return truncation_voxels * voxel_size; }  // metres
-  /// Device memory the volume reserves (bytes): the pool (8 bytes per voxel) and its slot per
-  /// block; per hash slot a key, pool index, frame stamp and visible-list entry.
-  std::uint64_t reserved_bytes() const {
-    return std::uint64_t{block_capacity} * (kBlockVoxels * 8 + 4) + std::uint64_t{hash_slots} * 16;
+  /// Device memory (bytes) of the volume with a pool of `pool_blocks` blocks (8 bytes per voxel),
+  /// its hash-slot index for each of block_capacity blocks, and per hash slot a key, pool index,
+  /// frame stamp and visible-list entry.
+  std::uint64_t reserved_bytes(std::uint32_t pool_blocks) const {
+    return std::uint64_t{pool_blocks} * kBlockVoxels * 8 + std::uint64_t{block_capacity} * 4 +
+           std::uint64_t{hash_slots} * 16;
   }
 };
 

@@ -37,6 +37,7 @@ Status check_config(const VolumeConfig& c, const VkPhysicalDeviceLimits& limits)
   if (!(c.truncation_voxels >= 1.0f)) return bad("truncation must be at least one voxel");
   if (c.max_weight < 1 || c.max_weight > 65535) return bad("max_weight must be 1..65535");
   if (c.block_capacity == 0) return bad("block capacity must be positive");
+  if (c.initial_blocks == 0) return bad("initial_blocks must be positive");
   if (c.hash_slots < 2 || (c.hash_slots & (c.hash_slots - 1)) != 0 ||
       c.hash_slots < c.block_capacity)
     return bad("hash_slots must be a power of two >= block_capacity, got " +
@@ -81,6 +82,8 @@ Result<TsdfVolume> TsdfVolume::create(std::shared_ptr<Context> context, const Vo
            v.range_pipeline_));
   IMUFUSION_RETURN_IF_ERROR(
       make({"volume_raycast", 10, sizeof(layout::VolumeRaycastParams), wx, wy}, v.raycast_));
+  IMUFUSION_RETURN_IF_ERROR(
+      make({"volume_pool_grow", 2, sizeof(layout::VolumePoolGrowParams), 64, 1}, v.grow_));
   auto alloc = [&](std::size_t bytes, Buffer& out, bool host_visible = false) -> Status {
     auto buffer = Buffer::create(context, bytes, host_visible);
     if (!buffer) return buffer.error();
@@ -97,13 +100,13 @@ Result<TsdfVolume> TsdfVolume::create(std::shared_ptr<Context> context, const Vo
   IMUFUSION_RETURN_IF_ERROR(alloc(VOLUME_COUNTERS * 4, v.counters_start_, true));
   IMUFUSION_RETURN_IF_ERROR(alloc(VOLUME_COUNTERS * 4, v.counters_readback_, true));
   IMUFUSION_RETURN_IF_ERROR(alloc(std::size_t{config.block_capacity} * 4, v.block_slots_));
-  IMUFUSION_RETURN_IF_ERROR(
-      alloc(std::size_t{config.block_capacity} * kBlockVoxels * 4, v.tsdf_weight_));
-  IMUFUSION_RETURN_IF_ERROR(
-      alloc(std::size_t{config.block_capacity} * kBlockVoxels * 4, v.voxel_colors_));
+  v.pool_blocks_ = std::min(config.initial_blocks, config.block_capacity);
+  IMUFUSION_RETURN_IF_ERROR(alloc(std::size_t{v.pool_blocks_} * kBlockVoxels * 4, v.tsdf_weight_));
+  IMUFUSION_RETURN_IF_ERROR(alloc(std::size_t{v.pool_blocks_} * kBlockVoxels * 4, v.voxel_colors_));
   IMUFUSION_RETURN_IF_ERROR(alloc(4, v.no_color_));
   IMUFUSION_RETURN_IF_ERROR(alloc(VOLUME_ARGS_WORDS * 4, v.args_));
-  auto seq = CommandSequence::create(context, std::max(kIntegrateDispatches, kRaycastDispatches));
+  auto seq = CommandSequence::create(
+      context, std::max({kIntegrateDispatches, kRaycastDispatches, kGrowDispatches}));
   if (!seq) return seq.error();
   v.seq_ = std::move(*seq);
   IMUFUSION_RETURN_IF_ERROR(v.reset());
@@ -121,6 +124,7 @@ Status TsdfVolume::reset() {
   frame_stamp_ = 0;
   ++epoch_;
   allocated_counter_ = 0;
+  largest_frame_blocks_ = 0;
   return {};
 }
 
@@ -128,18 +132,22 @@ Result<IntegrationStats> TsdfVolume::integrate(const Buffer& depth, const Buffer
                                                const Intrinsics& k,
                                                const Eigen::Isometry3d& T_world_camera,
                                                std::vector<KernelTiming>* timings) {
-  IMUFUSION_RETURN_IF_ERROR(seq_.begin());
-  const Status recorded = record_integrate(seq_, depth, color, k, T_world_camera);
-  auto t = seq_.submit_and_wait();  // ends the recording also after a failed record
-  IMUFUSION_RETURN_IF_ERROR(recorded);
-  if (!t) return t.error();
-  if (timings != nullptr) timings->insert(timings->end(), t->begin(), t->end());
-  return finish_integrate();
+  for (;;) {
+    IMUFUSION_RETURN_IF_ERROR(seq_.begin());
+    const Status recorded = record_integrate(seq_, depth, color, k, T_world_camera);
+    auto t = seq_.submit_and_wait();  // ends the recording also after a failed record
+    IMUFUSION_RETURN_IF_ERROR(recorded);
+    if (!t) return t.error();
+    if (timings != nullptr) timings->insert(timings->end(), t->begin(), t->end());
+    auto stats = finish_integrate();
+    if (!stats) return stats.error();
+    if (*stats) return **stats;
+  }
 }
 
 void TsdfVolume::record_args(CommandSequence& seq) {
   layout::VolumeArgsParams p{};
-  p.block_capacity = config_.block_capacity;
+  p.pool_blocks = pool_blocks_;
   seq.dispatch(args_pipeline_, {&counters_, &args_}, p, 1, 1, "volume_dispatch_args");
 }
 
@@ -165,8 +173,9 @@ Status TsdfVolume::record_integrate(CommandSequence& seq, const Buffer& depth, c
   ap.voxel_size = config_.voxel_size;
   ap.truncation = config_.truncation();
   ap.hash_mask = config_.hash_slots - 1;
-  ap.block_capacity = config_.block_capacity;
+  ap.pool_blocks = pool_blocks_;
   ap.frame_stamp = frame_stamp_;
+  ap.max_blocks = config_.block_capacity;
   seq.copy(counters_start_, counters_, sizeof(counters), "volume_counters");
   seq.dispatch(allocate_,
                {&depth, &keys_, &values_, &stamps_, &visible_, &counters_, &block_slots_}, ap,
@@ -180,6 +189,7 @@ Status TsdfVolume::record_integrate(CommandSequence& seq, const Buffer& depth, c
   ip.truncation = config_.truncation();
   ip.max_weight = static_cast<std::uint32_t>(config_.max_weight);
   ip.has_color = color != nullptr ? 1u : 0u;
+  ip.defer_above = pool_blocks_ < config_.block_capacity ? pool_blocks_ : VOLUME_NO_BLOCK;
   // One 8x8 workgroup per listed slot, counted on the GPU (volume_dispatch_args).
   seq.dispatch_indirect(integrate_,
                         {&depth, color != nullptr ? color : &no_color_, &keys_, &values_, &visible_,
@@ -189,11 +199,24 @@ Status TsdfVolume::record_integrate(CommandSequence& seq, const Buffer& depth, c
   return {};
 }
 
-IntegrationStats TsdfVolume::finish_integrate() {
+Result<std::optional<IntegrationStats>> TsdfVolume::finish_integrate() {
   std::uint32_t counters[VOLUME_COUNTERS] = {};
   // Host-visible: the download is a copy from mapped memory and cannot fail once mapped.
   (void)counters_readback_.download(counters, sizeof(counters));
-  allocated_counter_ = counters[VOLUME_COUNTER_ALLOCATED];
+  const std::uint32_t allocated = counters[VOLUME_COUNTER_ALLOCATED];
+  // The first frame into an empty volume finds all its surface new; the frames after it, only
+  // what the camera uncovers: they set the headroom.
+  if (allocated_counter_ > 0)
+    largest_frame_blocks_ = std::max(largest_frame_blocks_, allocated - allocated_counter_);
+  allocated_counter_ = allocated;
+  if (allocated > pool_blocks_ && pool_blocks_ < config_.block_capacity) {
+    // The integration pass deferred: the frame's blocks have no storage yet, nothing was fused.
+    IMUFUSION_RETURN_IF_ERROR(reserve_blocks(grown_pool(allocated)));
+    return std::optional<IntegrationStats>{};
+  }
+  const std::uint64_t ahead = std::uint64_t{allocated} + largest_frame_blocks_;
+  if (ahead > pool_blocks_ && pool_blocks_ < config_.block_capacity)
+    IMUFUSION_RETURN_IF_ERROR(reserve_blocks(grown_pool(ahead)));
   IntegrationStats stats;
   const std::uint32_t listed = counters[VOLUME_COUNTER_VISIBLE];  // touched slots, <= hash_slots
   stats.allocated_blocks = allocated_blocks();
@@ -202,7 +225,49 @@ IntegrationStats TsdfVolume::finish_integrate() {
   // Every touched block is either fused or counted as refused by the full pool.
   stats.pool_full = counters[VOLUME_COUNTER_POOL_FULL];
   stats.visible_blocks = listed - stats.pool_full;
-  return stats;
+  return std::optional<IntegrationStats>{stats};
+}
+
+std::uint32_t TsdfVolume::grown_pool(std::uint64_t needed) const {
+  const std::uint64_t geometric = std::uint64_t{pool_blocks_} + pool_blocks_ / 2;
+  return static_cast<std::uint32_t>(
+      std::min<std::uint64_t>(std::max(needed, geometric), config_.block_capacity));
+}
+
+Status TsdfVolume::reserve_blocks(std::uint32_t blocks) {
+  if (blocks <= pool_blocks_) return {};
+  if (blocks > config_.block_capacity)
+    return make_error(ErrorCode::kInvalidArgument, "cannot reserve " + std::to_string(blocks) +
+                                                       " blocks: the volume's block_capacity is " +
+                                                       std::to_string(config_.block_capacity));
+  const VkDeviceSize bytes = VkDeviceSize{blocks} * kBlockVoxels * 4;
+  const auto growing = [&](Error e) {
+    e.message = "growing the TSDF block pool to " + std::to_string(blocks) + " blocks (" +
+                std::to_string((2 * bytes) >> 20) + " MiB): " + e.message;
+    return e;
+  };
+  auto tsdf_weight = Buffer::create(context_, bytes);
+  if (!tsdf_weight) return growing(tsdf_weight.error());
+  auto colors = Buffer::create(context_, bytes);
+  if (!colors) return growing(colors.error());
+  IMUFUSION_RETURN_IF_ERROR(seq_.begin());
+  for (auto [from, to] : {std::pair{&tsdf_weight_, &*tsdf_weight}, {&voxel_colors_, &*colors}}) {
+    seq_.fill(*to, 0, "volume_pool_clear");
+    seq_.copy(*from, *to, from->size(), "volume_pool_copy");
+  }
+  // Blocks a deferred frame was refused get the storage now held for them.
+  const std::uint32_t refused_end = std::min(allocated_counter_, blocks);
+  if (refused_end > pool_blocks_) {
+    const layout::VolumePoolGrowParams p{pool_blocks_, refused_end - pool_blocks_};
+    seq_.dispatch(grow_, {&values_, &block_slots_}, p, p.count, 1, "volume_pool_grow");
+  }
+  auto t = seq_.submit_and_wait();
+  if (!t) return growing(t.error());
+  tsdf_weight_ = std::move(*tsdf_weight);
+  voxel_colors_ = std::move(*colors);
+  pool_blocks_ = blocks;
+  ++pool_growths_;
+  return {};
 }
 
 Status TsdfVolume::raycast(const Intrinsics& k, const Eigen::Isometry3d& T_world_camera,
@@ -242,7 +307,7 @@ Status TsdfVolume::record_raycast(CommandSequence& seq, const Intrinsics& k,
   qp.voxel_size = config_.voxel_size;
   qp.near_depth = near_depth;
   qp.range_width = rp.range_width;
-  qp.block_capacity = config_.block_capacity;
+  qp.pool_blocks = pool_blocks_;
   record_args(seq);
   seq.fill(range_, 0, "volume_raycast_range_clear");
   seq.dispatch_indirect(range_pipeline_, {&keys_, &values_, &block_slots_, &range_, &counters_}, qp,

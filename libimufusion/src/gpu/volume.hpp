@@ -1,6 +1,10 @@
 #pragma once
 // The sparse TSDF block volume on the GPU: hash table, block pool, allocation, integration,
-// raycast, and the download of a host snapshot.
+// raycast, and the download of a host snapshot. The pool starts at VolumeConfig::initial_blocks
+// and grows on the device (the blocks copied into larger buffers) up to block_capacity: ahead of
+// need by the most blocks one frame has added to a non-empty volume so far, and when a frame
+// still overflows it, that frame fuses nothing, the pool grows and the frame is recorded again.
+// The hash table keeps its size: hash_slots >= block_capacity bounds its load factor.
 
 #include <algorithm>
 #include <memory>
@@ -37,12 +41,19 @@ class TsdfVolume {
 
   /// Dispatches record_integrate() and record_raycast() add to a sequence.
   static constexpr std::uint32_t kIntegrateDispatches = 5, kRaycastDispatches = 4;
+  static constexpr std::uint32_t kGrowDispatches = 5;  // reserve_blocks()
 
-  /// integrate() recorded into `seq` (kIntegrateDispatches) without submitting: once the submission
-  /// has completed, finish_integrate() returns its statistics. One integration may be in flight.
+  /// integrate() recorded into `seq` (kIntegrateDispatches) without submitting. One integration
+  /// may be in flight: once the submission has completed, finish_integrate() returns its
+  /// statistics, or nothing when the frame overflowed a pool that could still grow: then nothing
+  /// was fused, the pool has grown, and the caller records the integration again (with what
+  /// followed it in the submission, such as the raycast).
   Status record_integrate(CommandSequence& seq, const Buffer& depth, const Buffer* color,
                           const Intrinsics& intrinsics, const Eigen::Isometry3d& T_world_camera);
-  IntegrationStats finish_integrate();
+  Result<std::optional<IntegrationStats>> finish_integrate();
+  /// Grows the pool to hold at least `blocks` (a no-op when it does): larger buffers, the blocks
+  /// copied on the device. An error, the volume unchanged, beyond VolumeConfig::block_capacity.
+  Status reserve_blocks(std::uint32_t blocks);
   /// raycast() recorded into `seq` (kRaycastDispatches) without submitting; it sees the blocks that
   /// an integration recorded before it allocates.
   Status record_raycast(CommandSequence& seq, const Intrinsics& intrinsics,
@@ -75,9 +86,13 @@ class TsdfVolume {
   std::uint64_t epoch() const { return epoch_; }
 
   const VolumeConfig& config() const { return config_; }
-  std::uint32_t allocated_blocks() const {
-    return std::min(allocated_counter_, config_.block_capacity);
-  }
+  /// Blocks with pool storage.
+  std::uint32_t allocated_blocks() const { return std::min(allocated_counter_, pool_blocks_); }
+  /// Blocks the pool holds now, and how many times it grew since creation.
+  std::uint32_t pool_blocks() const { return pool_blocks_; }
+  std::uint32_t pool_growths() const { return pool_growths_; }
+  /// Device memory the volume reserves now (bytes, VolumeConfig::reserved_bytes).
+  std::uint64_t reserved_bytes() const { return config_.reserved_bytes(pool_blocks_); }
   const std::shared_ptr<Context>& context() const { return context_; }
 
  private:
@@ -85,10 +100,13 @@ class TsdfVolume {
   Status reserve_range(int width, int height);
   /// Records the pass that turns the counters into the indirect workgroup counts (args_).
   void record_args(CommandSequence& seq);
+  /// The pool size to grow to for `needed` blocks: at least half again the present size, at most
+  /// the capacity.
+  std::uint32_t grown_pool(std::uint64_t needed) const;
 
   std::shared_ptr<Context> context_;
   VolumeConfig config_;
-  ComputePipeline allocate_, args_pipeline_, integrate_, range_pipeline_, raycast_;
+  ComputePipeline allocate_, args_pipeline_, integrate_, range_pipeline_, raycast_, grow_;
   Buffer keys_, values_, stamps_, visible_, counters_, block_slots_, tsdf_weight_, voxel_colors_,
       no_color_, range_, steps_, args_;
   // Host-visible: the counters a frame starts from, and their copy after each pass (read by the
@@ -98,8 +116,12 @@ class TsdfVolume {
   CommandSequence seq_;
   std::uint32_t frame_stamp_ = 0;
   std::uint64_t epoch_ = 0;
-  // VOLUME_COUNTER_ALLOCATED as last read: blocks asked for, which may pass the capacity.
+  // VOLUME_COUNTER_ALLOCATED as last read: blocks asked for, which may pass the pool.
   std::uint32_t allocated_counter_ = 0;
+  std::uint32_t pool_blocks_ = 0, pool_growths_ = 0;
+  // The most blocks one frame has added to a volume that was not empty: the headroom kept when
+  // growing ahead of need.
+  std::uint32_t largest_frame_blocks_ = 0;
 };
 
 }  // namespace imufusion::gpu

@@ -75,11 +75,12 @@ Status Reconstructor::Impl::raycast_model(const Intrinsics& k,
                         out.shaded, out.colors, timings);
 }
 
-// Fuses the frame at T_world_camera (with `fuse`) and makes the model seen from there the next
-// frame's ICP reference, in one submission. The submission's wall time is split between
-// integrate_ms and raycast_ms by their kernels' GPU times.
-Result<std::optional<IntegrationStats>> Reconstructor::Impl::fuse_and_update_reference(
-    const Eigen::Isometry3d& T_world_camera, bool fuse, bool with_color, FrameTimings& timings) {
+// Records the frame's fusion at T_world_camera (with `fuse`) and the model raycast from there
+// with the ICP reference maps from it, in one submission, and waits for it. The submission's wall
+// time is split between integrate_ms and raycast_ms by their kernels' GPU times.
+Status Reconstructor::Impl::submit_fuse_and_reference(const Eigen::Isometry3d& T_world_camera,
+                                                      bool fuse, bool with_color,
+                                                      FrameTimings& timings) {
   const auto t0 = Clock::now();
   const Intrinsics k = config.intrinsics.at_level(tracking_level);
   IMUFUSION_RETURN_IF_ERROR(fuse_seq.begin());
@@ -109,10 +110,22 @@ Result<std::optional<IntegrationStats>> Reconstructor::Impl::fuse_and_update_ref
   timings.integrate_ms += wall * integrate_share;
   timings.raycast_ms += wall * (1 - integrate_share);
   timings.kernels.insert(timings.kernels.end(), t->begin(), t->end());
-  T_world_reference = T_world_camera;
-  has_reference = true;
-  if (!fuse) return std::optional<IntegrationStats>{};
-  return std::optional<IntegrationStats>{volume.finish_integrate()};
+  return {};
+}
+
+// Fuses the frame at T_world_camera (with `fuse`) and makes the model seen from there the next
+// frame's ICP reference. A frame whose new blocks overflowed the pool fused nothing: the pool has
+// grown, and the frame is fused and the reference raycast again.
+Result<std::optional<IntegrationStats>> Reconstructor::Impl::fuse_and_update_reference(
+    const Eigen::Isometry3d& T_world_camera, bool fuse, bool with_color, FrameTimings& timings) {
+  for (;;) {
+    IMUFUSION_RETURN_IF_ERROR(submit_fuse_and_reference(T_world_camera, fuse, with_color, timings));
+    T_world_reference = T_world_camera;
+    has_reference = true;
+    if (!fuse) return std::optional<IntegrationStats>{};
+    auto stats = volume.finish_integrate();
+    if (!stats || stats->has_value()) return stats;
+  }
 }
 
 // The mean motion over the frames tracked in a row before this one, scaled to `interval` (s);
@@ -410,9 +423,9 @@ const ReconstructorConfig& Reconstructor::config() const { return impl_->config;
 const DeviceInfo& Reconstructor::device() const { return impl_->context->info(); }
 int Reconstructor::tracking_level() const { return impl_->tracking_level; }
 std::uint32_t Reconstructor::allocated_blocks() const { return impl_->volume.allocated_blocks(); }
-std::uint64_t Reconstructor::memory_bytes() const {
-  return impl_->volume.config().reserved_bytes();
-}
+std::uint32_t Reconstructor::pool_blocks() const { return impl_->volume.pool_blocks(); }
+std::uint32_t Reconstructor::pool_growths() const { return impl_->volume.pool_growths(); }
+std::uint64_t Reconstructor::memory_bytes() const { return impl_->volume.reserved_bytes(); }
 std::uint32_t Reconstructor::validation_error_count() const {
   return impl_->context->validation_error_count();
 }

@@ -91,6 +91,8 @@ struct Reconstructor::Impl final : ModelAligner {
   Status raycast_model(const Intrinsics& k, const Eigen::Isometry3d& T_world_camera,
                        std::pair<float, float> range, const RaycastBuffers& out,
                        std::vector<KernelTiming>* timings);
+  Status submit_fuse_and_reference(const Eigen::Isometry3d& T_world_camera, bool fuse,
+                                   bool with_color, FrameTimings& timings);
   Result<std::optional<IntegrationStats>> fuse_and_update_reference(
       const Eigen::Isometry3d& T_world_camera, bool fuse, bool with_color, FrameTimings& timings);
   LossRecovery::Frame start_frame(const DepthView& depth, FrameResult& r);
