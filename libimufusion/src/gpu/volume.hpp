@@ -103,6 +103,11 @@ class TsdfVolume {
  private:
   /// Ensures range_ holds the range image of a width x height raycast.
   Status reserve_range(int width, int height);
+  // The hash table's words, one per slot.
+  struct HashTable {
+    std::vector<std::uint32_t> keys, values, stamps;
+  };
+  Result<HashTable> download_table() const;
   /// Makes room in the pool for `blocks` blocks; fails naming both counts when it cannot.
   Status reserve_pool(std::uint32_t blocks);
   static Status check_contents(const Contents& c, std::uint32_t hash_slots);

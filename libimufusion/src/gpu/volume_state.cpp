@@ -15,18 +15,14 @@ Result<TsdfVolume::Contents> TsdfVolume::contents() const {
   auto counters = counters_.download_as<std::uint32_t>(VOLUME_COUNTERS);
   if (!counters) return counters.error();
   c.counters = std::move(*counters);
-  auto keys = keys_.download_as<std::uint32_t>(config_.hash_slots);
-  if (!keys) return keys.error();
-  auto values = values_.download_as<std::uint32_t>(config_.hash_slots);
-  if (!values) return values.error();
-  auto stamps = stamps_.download_as<std::uint32_t>(config_.hash_slots);
-  if (!stamps) return stamps.error();
+  auto table = download_table();
+  if (!table) return table.error();
   for (std::uint32_t slot = 0; slot < config_.hash_slots; ++slot) {
-    if ((*keys)[slot] == VOLUME_EMPTY_KEY) continue;
+    if (table->keys[slot] == VOLUME_EMPTY_KEY) continue;
     c.slots.push_back(slot);
-    c.keys.push_back((*keys)[slot]);
-    c.values.push_back((*values)[slot]);
-    c.stamps.push_back((*stamps)[slot]);
+    c.keys.push_back(table->keys[slot]);
+    c.values.push_back(table->values[slot]);
+    c.stamps.push_back(table->stamps[slot]);
   }
   const std::size_t words = std::size_t{allocated_blocks()} * kBlockVoxels;
   c.tsdf_weight.resize(words);

@@ -25,8 +25,8 @@ constexpr std::uint32_t kVersion = 1;
 constexpr std::size_t kHeaderBytes = 24;
 
 void describe_volume(StateArchive& a, gpu::TsdfVolume::Contents& c) {
-  a(c.hash_slots, c.allocated, c.frame_stamp, c.counters, c.slots, c.keys, c.values, c.stamps, c.tsdf_weight,
-    c.colors);
+  a(c.hash_slots, c.allocated, c.frame_stamp, c.counters, c.slots, c.keys, c.values, c.stamps,
+    c.tsdf_weight, c.colors);
 }
 
 Error file_error(const std::filesystem::path& path, ErrorCode code, const std::string& what) {
