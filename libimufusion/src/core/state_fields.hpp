@@ -1,7 +1,9 @@
 #pragma once
 // The fields of the public value types a saved scan holds (StateArchive's free describe()): the
 // scanner's configuration and the plain records of its state. Each lists every field of its
-// type; a field added to one of these types must be added here.
+// type; a field added to one of these types must be added here, and any change to what a saved
+// scan holds raises kVersion in scan/reconstructor_state.cpp (older files then fail to load with
+// the version named, rather than be misread).
 
 #include "core/drift_model.hpp"
 #include "core/state_archive.hpp"
