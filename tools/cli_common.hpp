@@ -1,6 +1,7 @@
 #pragma once
 // What every command-line tool prints the same way: an error line, and the Vulkan devices.
 
+#include <chrono>
 #include <cstdio>
 #include <iostream>
 #include <string>
@@ -13,6 +14,12 @@ namespace imufusion::tools {
 inline int fail(const std::string& message) {
   std::cerr << "error: " << message << "\n";
   return 1;
+}
+
+/// Milliseconds since `start`.
+inline double ms_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
 }
 
 /// Lists the Vulkan devices, one per line: "[index] name (type, driver, device-local MiB)".

@@ -27,6 +27,18 @@ class SteppedFrames {
   /// Kept frames of an input of `frames` frames: ceil(frames / step).
   std::size_t kept_of(std::size_t frames) const { return (frames + step_ - 1) / step_; }
 
+  /// Skips the kept frames at or before `t` (s): those a resumed scan holds already. Sequences
+  /// only (a live source's frames are all new); returns how many.
+  std::size_t skip_through(double t) {
+    std::size_t skipped = 0;
+    while (reader_ != nullptr && kept_ * step_ < reader_->frame_count() &&
+           reader_->info().depth[kept_ * step_].timestamp <= t) {
+      ++kept_;
+      ++skipped;
+    }
+    return skipped;
+  }
+
   /// The next kept frame, nullopt past the end of the input. Its `imu` holds every sample after
   /// the previous kept frame's timestamp up to its own (for the first kept frame, what the input
   /// gives frame 0). Samples after the last kept frame have no frame to go with and are dropped.

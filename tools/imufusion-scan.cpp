@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <csignal>
 #include <cstdint>
 #include <cstdio>
@@ -54,6 +55,7 @@ using namespace imufusion;
 namespace {
 
 using tools::fail;
+using tools::ms_since;
 using tools::print_devices;
 
 using tools::ScanOptions;
@@ -249,6 +251,29 @@ struct ScanInputs {
   const Trajectory& known;
 };
 
+// After the last frame: --save-state (before finish(), which would settle a recovery the
+// continued scan may still complete), then finish().
+void end_scan(const ScanOptions& opt, Reconstructor& rec, ScanRun& run, int& exit_code) {
+  if (!opt.save_state.empty()) {
+    const auto t0 = std::chrono::steady_clock::now();
+    if (const Status saved = rec.save(opt.save_state); !saved) {
+      std::cerr << "error: --save-state: " << saved.error().describe() << "\n";
+      exit_code = 1;
+    } else if (!opt.quiet) {
+      std::cerr << "state: " << rec.trajectory().size() << " frames, " << rec.allocated_blocks()
+                << " blocks saved to " << opt.save_state.string() << " in " << ms_since(t0)
+                << " ms\n";
+    }
+  }
+  auto placed = rec.finish();
+  if (placed) {
+    run.summary.add_retracked(*placed);
+  } else if (run.stopped.empty()) {
+    run.stopped = "ending the scan: " + placed.error().describe();
+    exit_code = 1;
+  }
+}
+
 // Scans until the input ends, --frames frames are done, a frame fails or SIGINT/SIGTERM, then
 // settles a scan that ends while recovering (Reconstructor::finish). Returns the exit code.
 int scan_frames(const ScanOptions& opt, Reconstructor& rec, ScanInputs in, ScanRun& run) {
@@ -315,15 +340,7 @@ int scan_frames(const ScanOptions& opt, Reconstructor& rec, ScanInputs in, ScanR
     if (progress) show_progress(i + 1, in.total, *run.last, 1000.0 * frames_done / elapsed_ms);
   }
   if (progress) std::fputc('\n', stderr);
-  if (run.last) {
-    auto placed = rec.finish();
-    if (placed) {
-      run.summary.add_retracked(*placed);
-    } else if (run.stopped.empty()) {
-      run.stopped = "ending the scan: " + placed.error().describe();
-      exit_code = 1;
-    }
-  }
+  if (run.last) end_scan(opt, rec, run, exit_code);
   return exit_code;
 }
 
@@ -437,9 +454,18 @@ int main(int argc, char** argv) {
   run.imu_fallback = sequence_imu_unusable(opt, sequence);
   if (!run.imu_fallback.empty()) std::cerr << "warning: " << run.imu_fallback << "\n";
   warn_imu_left_out(sequence);
-  auto rec = Reconstructor::create(
-      make_config(opt, sequence, in.source.get(), input_intrinsics(in), run.imu_fallback.empty()));
+  DeviceOptions device;
+  device.selector = opt.device;
+  const auto t0 = std::chrono::steady_clock::now();
+  auto rec =
+      opt.resume.empty()
+          ? Reconstructor::create(make_config(opt, sequence, in.source.get(), input_intrinsics(in),
+                                              run.imu_fallback.empty()))
+          : Reconstructor::load(opt.resume, device);
   if (!rec) return fail(rec.error().describe());
+  if (!opt.resume.empty() && !opt.quiet)
+    std::cerr << "state: " << rec->trajectory().size() << " frames loaded from "
+              << opt.resume.string() << " in " << ms_since(t0) << " ms\n";
   LiveInputs live;
   if (const std::string error = open_live(opt, *rec, sequence, live); !error.empty())
     return fail(error);
@@ -448,8 +474,12 @@ int main(int argc, char** argv) {
   std::signal(SIGTERM, on_interrupt);
   const std::size_t limit = frame_limit(opt);
   tools::SteppedFrames frames(in.source ? nullptr : &*in.reader, in.source.get(), opt.frame_step);
-  const std::size_t total = in.reader ? std::min(frames.kept_of(in.reader->frame_count()), limit)
-                                      : (opt.max_frames > 0 ? limit : 0);
+  const std::size_t resumed = opt.resume.empty() || rec->trajectory().empty()
+                                  ? 0
+                                  : frames.skip_through(rec->trajectory().back().timestamp);
+  const std::size_t total =
+      in.reader ? std::min(frames.kept_of(in.reader->frame_count()) - resumed, limit)
+                : (opt.max_frames > 0 ? limit : 0);
   int exit_code =
       scan_frames(opt, *rec, ScanInputs{frames, total, live.imu, live.recorder, known}, run);
   if (!run.stopped.empty())

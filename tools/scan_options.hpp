@@ -44,6 +44,8 @@ struct ScanOptions {
   std::optional<std::uint16_t> imu_udp;
   std::string imu_udp_address = ImuUdpOptions{}.address;
   std::filesystem::path record;
+  std::filesystem::path save_state;  // the scan's state, saved after its last frame
+  std::filesystem::path resume;      // a saved scan to continue
 };
 
 // Writes the usage text to `out`; returns `code`.
@@ -59,7 +61,7 @@ inline int scan_usage(std::ostream& out, int code) {
          "                      [--realtime] [--imu-udp PORT] [--imu-udp-address ADDR] [--record "
          "DIR]\n"
          "                      [--frame-step N] [--block-capacity N] [--initial-blocks N]\n"
-         "                      [--tracking-level N]\n"
+         "                      [--tracking-level N] [--save-state FILE] [--resume FILE]\n"
          "Scans SEQUENCE, a camera (openni2:// or openni2://URI) or a recording (FILE.oni) "
          "(default:\n"
          "the embedded demo room, synthesized into --demo-dir, default ./demo) and writes DIR "
@@ -99,7 +101,16 @@ inline int scan_usage(std::ostream& out, int code) {
          "  --tracking-level N       pyramid level of ICP and the model raycast: 0 full size, 1 "
          "half\n"
          "                           (default: 1 on a CPU device, 0 on a GPU); fusion takes the "
-         "full frame\n";
+         "full frame\n"
+         "  --save-state FILE        save the scan after its last frame, to continue it with "
+         "--resume\n"
+         "  --resume FILE            continue the scan saved in FILE with the sequence's frames "
+         "after\n"
+         "                           its last one, in its saved configuration (options that set "
+         "one\n"
+         "                           are ignored); frames.csv and summary.json cover this run's "
+         "frames,\n"
+         "                           trajectory.txt and the mesh the whole scan\n";
   return code;
 }
 
@@ -132,6 +143,10 @@ inline int parse_scan_value(const std::string& a, const std::string& v, ScanOpti
     opt.demo_dir = v;
   else if (a == "--record")
     opt.record = v;
+  else if (a == "--save-state")
+    opt.save_state = v;
+  else if (a == "--resume")
+    opt.resume = v;
   else if (a == "--imu-udp-address")
     opt.imu_udp_address = v;
   else if (a == "--depth-mode") {

@@ -154,6 +154,13 @@ void bind_outputs(py::class_<Reconstructor>& c) {
           py::arg("T_world_camera"), py::arg("intrinsics") = py::none(),
           "The model seen from a 4x4 pose (default: the depth camera's intrinsics)")
       .def(
+          "save",
+          [](const Reconstructor& self, const std::string& path) {
+            py::gil_scoped_release unlocked;
+            check(self.save(path));
+          },
+          py::arg("path"), "Writes the scan so far to path (Reconstructor.load continues it)")
+      .def(
           "reset", [](Reconstructor& self) { check(self.reset()); },
           "Empties the volume and forgets the trajectory");
 }
@@ -170,6 +177,15 @@ void bind_scanner(py::module_& m) {
       "Creates the scanner on a Vulkan device; raises imufusion.Error";
   c.def(py::init(create), py::arg("config"), kCreateDoc)
       .def_static("create", create, py::arg("config"), kCreateDoc)
+      .def_static(
+          "load",
+          [](const std::string& path, const std::string& device) {
+            DeviceOptions options;
+            options.selector = device;
+            return std::make_unique<Reconstructor>(unwrap(Reconstructor::load(path, options)));
+          },
+          py::arg("path"), py::arg("device") = "",
+          "The scan Reconstructor.save wrote, ready for its next frame; raises imufusion.Error")
       .def_property_readonly(
           "config", [](const Reconstructor& self) { return self.config(); },
           "a copy of the configuration")

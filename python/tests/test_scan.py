@@ -123,3 +123,26 @@ def test_strided_numpy_slices_track_as_the_packed_frames(small_sequence):
         result = scanner.track_and_fuse(frame.timestamp, depth, color, frame.imu,
                                         depth_scale=frame.depth_scale)
         assert np.array_equal(result.T_world_camera, expected)
+
+
+def test_a_saved_scan_continues_as_if_never_stopped(small_sequence, tmp_path):
+    straight, results = scan_sequence(small_sequence)
+    frames = list(imufusion.SequenceReader(small_sequence))
+    sequence = imufusion.SequenceReader(small_sequence)
+    first = imufusion.Reconstructor(
+        imufusion.sequence_config(imufusion.SensorPreset.KINECT, sequence, with_imu=True))
+
+    def feed(scanner, part):
+        return [scanner.track_and_fuse(f.timestamp, f.depth, f.color, f.imu,
+                                       depth_scale=f.depth_scale) for f in part]
+
+    feed(first, frames[:20])
+    first.save(str(tmp_path / "scan.imufusion"))
+    resumed = imufusion.Reconstructor.load(str(tmp_path / "scan.imufusion"))
+    rest = feed(resumed, frames[20:])
+    resumed.finish()
+    assert [r.index for r in rest] == list(range(20, 40))
+    np.testing.assert_array_equal(resumed.trajectory(), straight.trajectory())
+    np.testing.assert_array_equal(resumed.extract_mesh().vertices, straight.extract_mesh().vertices)
+    with pytest.raises(imufusion.Error, match="missing.imufusion"):
+        imufusion.Reconstructor.load(str(tmp_path / "missing.imufusion"))

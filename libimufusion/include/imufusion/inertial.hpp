@@ -36,6 +36,8 @@
 
 namespace imufusion {
 
+class StateArchive;  // src/core/state_archive.hpp
+
 /// How the translation between frames is predicted.
 /// kNone: zero translation (the paper: the IMU seeds rotation only).
 /// kConstantVelocity: the velocity of recent tracked frames, held.
@@ -224,6 +226,8 @@ class InertialNavigator {
   /// Forgets the tracking memory (last frame, velocity, gravity: all tied to the tracked world
   /// frame); keeps the samples and the calibration (bias, mounting rotation).
   void reset();
+  /// Writes or reads the changing state (not the configuration) for a saved scan.
+  void describe(StateArchive& archive);
 
  private:
   struct State;

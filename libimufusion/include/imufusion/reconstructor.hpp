@@ -25,6 +25,7 @@
 #include <Eigen/Geometry>
 #include <cstddef>
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <span>
@@ -204,6 +205,19 @@ class Reconstructor {
   /// under way (a second call, a scan that ends tracking or lost). Frames may still follow: the
   /// recovery goes on counting, its stretch already settled.
   Result<std::size_t> finish();
+
+  /// Writes the scan so far to `path`, atomically (a failed save leaves an existing file as it
+  /// was): the configuration, the volume's blocks, the trajectory, and every estimate the next
+  /// frames depend on (tracking state, IMU bias, gravity, velocity and mounting, a lost stretch
+  /// under way with its kept depth). Frames fed to load()'s scanner then give exactly what they
+  /// would have given here. Size and time: bench/README.md, "Saving and resuming a scan".
+  Status save(const std::filesystem::path& path) const;
+  /// The scan save() wrote, ready for its next frame (later than the last saved one), on the
+  /// device `device` picks; the configuration is the saved one. Fails naming the file when it is
+  /// missing, not a saved scan, of another format version, truncated or corrupt, and when the
+  /// volume's pool cannot hold the saved blocks. extract_mesh_changes() starts with everything.
+  static Result<Reconstructor> load(const std::filesystem::path& path,
+                                    const DeviceOptions& device = {});
 
   /// Marching cubes over the allocated blocks (welded vertices, normals, colours).
   Result<Mesh> extract_mesh(const MeshOptions& options = {}) const;

@@ -39,6 +39,8 @@
 
 namespace imufusion {
 
+class StateArchive;  // src/core/state_archive.hpp
+
 enum class TrackingStatus { kTracking, kLost, kRecovering };
 enum class PoseSource { kInitial, kIcp, kIcpPartial, kDeadReckoning, kKnown };
 
@@ -82,6 +84,8 @@ class PairingReference {
   void apply(double& min_inlier_fraction, double& min_pixel_fraction) const;
   void reset();
   std::size_t size() const { return inlier_.size(); }
+  /// Writes or reads the changing state (not the configuration) for a saved scan.
+  void describe(StateArchive& archive);
 
  private:
   TrackingConfig config_;
@@ -101,6 +105,8 @@ class PredictionCalibration {
   double scale() const;
   void reset() { chi2_.clear(); }
   std::size_t size() const { return chi2_.size(); }
+  /// Writes or reads the changing state (not the configuration) for a saved scan.
+  void describe(StateArchive& archive);
 
  private:
   TrackingConfig config_;
@@ -138,6 +144,8 @@ class TrackingStateMachine {
   /// Whether the next frame is tracked from a dead-reckoned seed (lost or recovering).
   bool recovering_or_lost() const { return started_ && status_ != TrackingStatus::kTracking; }
   const TrackingConfig& config() const { return config_; }
+  /// Writes or reads the changing state (not the configuration) for a saved scan.
+  void describe(StateArchive& archive);
 
  private:
   TrackingConfig config_;

@@ -58,4 +58,8 @@ void GyroBiasEstimator::reset_to(const Eigen::Vector3d& bias, const Eigen::Matri
   P_ = 0.5 * (covariance + covariance.transpose());
 }
 
+void GyroBiasEstimator::describe(StateArchive& archive) {
+  archive(bias_, P_, last_time_, has_time_, updates_, rejected_);
+}
+
 }  // namespace imufusion::inertial

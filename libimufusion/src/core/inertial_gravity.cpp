@@ -126,4 +126,9 @@ void GravityBiasEstimator::reset() {
   bias_sigma_ = Eigen::Vector3d::Constant(bias_prior_sigma_);
 }
 
+void GravityBiasEstimator::describe(StateArchive& archive) {
+  archive(prior_info_, prior_vec_, support_time_, H_, r_, chain_frames_, chain_tau_, D_, V_, Jp_,
+          Jv_, gravity_, bias_, gravity_sigma_, bias_sigma_);
+}
+
 }  // namespace imufusion::inertial

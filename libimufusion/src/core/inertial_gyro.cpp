@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "core/inertial_internal.hpp"
+#include "core/state_fields.hpp"
 
 namespace imufusion::inertial {
 
@@ -182,5 +183,7 @@ ImuIntegration SampleBuffer::integrate(double ta, double tb, const Eigen::Vector
       first <= last && first < samples_.size() ? static_cast<int>(last - first + 1) : 0;
   return out;
 }
+
+void SampleBuffer::describe(StateArchive& archive) { archive(samples_, last_merged_); }
 
 }  // namespace imufusion::inertial

@@ -97,4 +97,15 @@ HandEyeCalibrator::Solution HandEyeCalibrator::solve(const Eigen::Vector3d& bias
   return out;
 }
 
+void HandEyeCalibrator::describe(StateArchive& archive) {
+  std::size_t n = pairs_.size();
+  archive(n);
+  if (archive.reading()) {
+    if (n > static_cast<std::size_t>(max_pairs_))
+      archive.fail(std::to_string(n) + " hand-eye pairs, at most " + std::to_string(max_pairs_));
+    pairs_.resize(archive.ok() ? n : 0);
+  }
+  for (Pair& p : pairs_) archive(p.a_camera, p.a_imu, p.J_bias, p.bias_used);
+}
+
 }  // namespace imufusion::inertial

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/so3.hpp"
+#include "core/state_archive.hpp"
 #include "imufusion/inertial.hpp"
 #include "imufusion/result.hpp"
 #include "imufusion/types.hpp"
@@ -48,6 +49,7 @@ class SampleBuffer {
   Status append(std::span<const ImuSample> samples);
   double latest_time() const;
   bool empty() const { return samples_.empty(); }
+  void describe(StateArchive& archive);  // the changing state, for a saved scan
 
   ImuIntegration integrate(double ta, double tb, const Eigen::Vector3d& bias,
                            const Eigen::Matrix3d& R_world_imu_a) const;
@@ -88,6 +90,7 @@ class GyroBiasEstimator {
   const Eigen::Matrix3d& covariance() const { return P_; }
   int updates() const { return updates_; }
   int rejected() const { return rejected_; }
+  void describe(StateArchive& archive);  // the changing state, for a saved scan
 
  private:
   Eigen::Vector3d bias_;
@@ -119,6 +122,7 @@ class HandEyeCalibrator {
   /// Solves from the stored pairs, starting the bias at `bias_guess`.
   Solution solve(const Eigen::Vector3d& bias_guess) const;
   int pairs() const { return static_cast<int>(pairs_.size()); }
+  void describe(StateArchive& archive);  // the changing state, for a saved scan
 
  private:
   struct Pair {
@@ -161,6 +165,7 @@ class GravityBiasEstimator {
   /// Ends the current chain (a break in the frame sequence), keeping its information.
   void interrupt();
   void reset();
+  void describe(StateArchive& archive);  // the changing state, for a saved scan
 
  private:
   using Mat12 = Eigen::Matrix<double, 12, 12>;
@@ -227,6 +232,7 @@ class VelocityFilter {
   }
   /// Forgets velocity and gravity.
   void reset();
+  void describe(StateArchive& archive);  // the changing state, for a saved scan
 
  private:
   /// Variance of a velocity measured from two tracked positions dt apart, (m/s)^2 per axis.

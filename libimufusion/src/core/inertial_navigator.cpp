@@ -278,4 +278,11 @@ void InertialNavigator::reset() {
   state_->velocity.reset();
 }
 
+void InertialNavigator::describe(StateArchive& archive) {
+  State& s = *state_;
+  archive(s.samples, s.bias, s.hand_eye, s.velocity, s.R_camera_imu, s.lever_arm,
+          s.mounting_trusted, s.hand_eye_sigma, s.R_camera_imu_check, s.check_angle, s.check_sigma,
+          s.pairs_since_check, s.has_last, s.last_time, s.T_world_last);
+}
+
 }  // namespace imufusion

@@ -138,5 +138,9 @@ void VelocityFilter::reset() {
   gravity_.reset();
 }
 
+void VelocityFilter::describe(StateArchive& archive) {
+  archive(unmeasured_time_, v_, P_, initialized_, gravity_);
+}
+
 }  // namespace inertial
 }  // namespace imufusion

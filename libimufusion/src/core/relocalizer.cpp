@@ -185,4 +185,13 @@ std::vector<Eigen::Vector3d> volume_surface_points(const HostVolume& volume) {
   return points;
 }
 
+void SurfaceDistanceField::describe(StateArchive& archive) {
+  archive(cell_, cutoff_, origin_, size_, distance_);
+  const std::int64_t cells = std::int64_t{size_.x()} * size_.y() * size_.z();
+  if (archive.reading() &&
+      (size_.minCoeff() < 0 || cells != static_cast<std::int64_t>(distance_.size())))
+    archive.fail("a distance field of " + std::to_string(distance_.size()) + " cells sized " +
+                 std::to_string(cells));
+}
+
 }  // namespace imufusion

@@ -15,6 +15,7 @@
 #include <optional>
 #include <vector>
 
+#include "core/state_archive.hpp"
 #include "imufusion/volume.hpp"
 
 namespace imufusion {
@@ -38,6 +39,7 @@ class SurfaceDistanceField {
   double cutoff() const { return cutoff_; }
   /// Distance at the nearest grid centre; cutoff outside the grid.
   double distance(const Eigen::Vector3d& p) const;
+  void describe(StateArchive& archive);  // the changing state, for a saved scan
 
   /// The `count` best translations t (lowest cost first, distinct local minima of the cost over
   /// grid offsets of one cell) such that R * p + t fits the surface, searched over the cells

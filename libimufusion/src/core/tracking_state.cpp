@@ -2,6 +2,7 @@
 #include <cmath>
 #include <string_view>
 
+#include "core/state_archive.hpp"
 #include "imufusion/tracking.hpp"
 
 namespace imufusion {
@@ -143,6 +144,14 @@ void TrackingStateMachine::reset() {
   started_ = false;
   status_ = TrackingStatus::kTracking;
   good_frames_ = 0;
+}
+
+void PairingReference::describe(StateArchive& archive) { archive(inlier_, pixel_); }
+
+void PredictionCalibration::describe(StateArchive& archive) { archive(chi2_); }
+
+void TrackingStateMachine::describe(StateArchive& archive) {
+  archive(started_, status_, good_frames_);
 }
 
 }  // namespace imufusion

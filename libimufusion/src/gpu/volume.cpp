@@ -338,13 +338,23 @@ Result<std::vector<std::uint32_t>> TsdfVolume::last_raycast_steps() const {
   return steps_.download_as<std::uint32_t>(raycast_pixels_);
 }
 
+Result<TsdfVolume::HashTable> TsdfVolume::download_table() const {
+  HashTable table;
+  for (auto [buffer, words] : {std::pair{&keys_, &table.keys}, std::pair{&values_, &table.values},
+                               std::pair{&stamps_, &table.stamps}}) {
+    auto downloaded = buffer->download_as<std::uint32_t>(config_.hash_slots);
+    if (!downloaded) return downloaded.error();
+    *words = std::move(*downloaded);
+  }
+  return table;
+}
+
 Result<std::vector<TsdfVolume::BlockEntry>> TsdfVolume::block_entries() const {
-  auto keys = keys_.download_as<std::uint32_t>(config_.hash_slots);
-  if (!keys) return keys.error();
-  auto values = values_.download_as<std::uint32_t>(config_.hash_slots);
-  if (!values) return values.error();
-  auto stamps = stamps_.download_as<std::uint32_t>(config_.hash_slots);
-  if (!stamps) return stamps.error();
+  auto table = download_table();
+  if (!table) return table.error();
+  const auto* keys = &table->keys;
+  const auto* values = &table->values;
+  const auto* stamps = &table->stamps;
   std::vector<BlockEntry> entries;
   for (std::size_t slot = 0; slot < keys->size(); ++slot) {
     const std::uint32_t key = (*keys)[slot];

@@ -80,6 +80,26 @@ class TsdfVolume {
   /// Empties the volume.
   Status reset();
 
+  /// What a saved scan keeps of the volume: the occupied hash slots and the pool's stored blocks,
+  /// in the GPU's own words, so that a restored volume is the saved one slot for slot.
+  struct Contents {
+    std::uint32_t hash_slots = 0;
+    std::uint32_t allocated = 0;  // blocks asked for (VOLUME_COUNTER_ALLOCATED; may pass capacity)
+    std::uint32_t frame_stamp = 0;
+    // The last integration's counters (VOLUME_COUNTERS words), which the next raycast reads.
+    std::vector<std::uint32_t> counters;
+    std::vector<std::uint32_t> slots, keys, values, stamps;  // per occupied slot, ascending slots
+    // Pool blocks [0, stored): kBlockVoxels words each, tsdf (snorm16) | weight << 16 and RGBA8.
+    std::vector<std::uint32_t> tsdf_weight, colors;
+    std::size_t stored_blocks() const { return tsdf_weight.size() / kBlockVoxels; }
+  };
+  /// Downloads the hash table and the stored blocks' voxels.
+  Result<Contents> contents() const;
+  /// Replaces the volume by `contents` (those of a volume with the same hash_slots). Fails, before
+  /// changing anything, on contents that do not fit together and when the pool cannot hold their
+  /// blocks.
+  Status restore(const Contents& contents);
+
   /// The stamp of the last integration recorded (0 after reset()); blocks it touched carry it.
   std::uint32_t frame_stamp() const { return frame_stamp_; }
   /// Counts reset() calls and stamp wraps: stamps of different epochs are not comparable.
@@ -98,6 +118,14 @@ class TsdfVolume {
  private:
   /// Ensures range_ holds the range image of a width x height raycast.
   Status reserve_range(int width, int height);
+  // The hash table's words, one per slot.
+  struct HashTable {
+    std::vector<std::uint32_t> keys, values, stamps;
+  };
+  Result<HashTable> download_table() const;
+  /// Makes room in the pool for `blocks` blocks; fails naming both counts when it cannot.
+  Status reserve_pool(std::uint32_t blocks);
+  static Status check_contents(const Contents& c, std::uint32_t hash_slots);
   /// Records the pass that turns the counters into the indirect workgroup counts (args_).
   void record_args(CommandSequence& seq);
   /// The pool size to grow to for `needed` blocks: at least half again the present size, at most

@@ -8,6 +8,7 @@
 #include <cstring>
 
 #include "core/so3.hpp"
+#include "core/state_fields.hpp"
 #include "scan/clock.hpp"
 
 namespace imufusion {
@@ -302,5 +303,30 @@ DriftPrior LossRecovery::drift_prior(const InertialNavigator* navigator) const {
   prior.gyro_noise_density = gyro_noise_density_;
   return prior;
 }
+
+void LossRecovery::describe(StateArchive& archive) {
+  archive(constrained_time_, constrained_index_, constrained_prior_, partial_, lost_depth_,
+          pending_);
+}
+
+void LossRecovery::PartialFrame::describe(StateArchive& archive) {
+  archive(index, fixed, moved, measured);
+}
+
+void LossRecovery::DepthCopy::describe(StateArchive& archive) {
+  archive(layout, bytes);
+  const std::size_t expected = layout.pixel_bytes() *
+                               static_cast<std::size_t>(std::max(layout.width, 0)) *
+                               static_cast<std::size_t>(std::max(layout.height, 0));
+  if (archive.reading() && bytes.size() != expected)
+    archive.fail("a kept depth image of " + std::to_string(bytes.size()) + " bytes for " +
+                 std::to_string(layout.width) + "x" + std::to_string(layout.height));
+}
+
+void LossRecovery::StretchEnd::describe(StateArchive& archive) {
+  archive(anchor, index, estimate, corrected, prior, fixed);
+}
+
+void LossRecovery::PendingCorrection::describe(StateArchive& archive) { archive(end, depth); }
 
 }  // namespace imufusion

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "core/drift_model.hpp"
+#include "core/state_archive.hpp"
 #include "scan/model_aligner.hpp"
 
 namespace imufusion {
@@ -64,6 +65,7 @@ class LossRecovery {
   /// A frame at a known pose: the stretch starts again there, no correction pending.
   void on_known_pose(std::size_t index, double timestamp, const InertialNavigator* navigator);
   void reset();
+  void describe(StateArchive& archive);  // the changing state, for a saved scan
 
  private:
   // A frame partial ICP placed since the last fully constrained one.
@@ -72,6 +74,7 @@ class LossRecovery {
     Eigen::Matrix3d fixed;  // world translation directions partial ICP fixed
     Eigen::Vector3d moved;  // the frame's move from its dead-reckoned seed (world)
     bool measured = false;  // after a long loss: the move is a measurement, not exact
+    void describe(StateArchive& archive);
   };
   // A frame's depth copied packed, in its own format (uint16 units, DEPTH16 or float metres).
   struct DepthCopy {
@@ -79,6 +82,7 @@ class LossRecovery {
     std::vector<std::byte> bytes;
     static DepthCopy of(const DepthView& depth);
     DepthView view() const;
+    void describe(StateArchive& archive);
   };
   using KeptDepth = std::deque<std::pair<std::size_t, DepthCopy>>;
   // The end of a lost stretch back to `anchor`: frame `index` (the first that ICP placed after
@@ -88,11 +92,13 @@ class LossRecovery {
     Eigen::Isometry3d estimate, corrected;
     DriftPrior prior;
     std::vector<PartialFrame> fixed;
+    void describe(StateArchive& archive);
   };
   // From a loss's first recovering frame: the stretch's end, and the lost frames' depth kept.
   struct PendingCorrection {
     StretchEnd end;
     KeptDepth depth;
+    void describe(StateArchive& archive);
   };
   using Placed = std::vector<std::pair<std::size_t, Eigen::Isometry3d>>;
   // What retrack() returns (see there).

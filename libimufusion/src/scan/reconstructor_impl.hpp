@@ -7,6 +7,7 @@
 #include <deque>
 #include <utility>
 
+#include "core/state_archive.hpp"
 #include "gpu/icp_kernels.hpp"
 #include "gpu/preprocessor.hpp"
 #include "gpu/volume.hpp"
@@ -119,6 +120,10 @@ struct Reconstructor::Impl final : ModelAligner {
   IcpReliabilityThresholds reliability(const DepthView& depth) const override;
   Result<std::vector<Eigen::Vector3d>> frame_points(int level) override;
   Result<HostVolume> model_snapshot() const override { return volume.snapshot(); }
+
+  // Everything on the host the next frames depend on, but the configuration, the tracking level
+  // and the volume (reconstructor_state.cpp).
+  void describe_state(StateArchive& archive);
 
   InertialNavigator* navigator_or_null() { return navigator ? &*navigator : nullptr; }
 

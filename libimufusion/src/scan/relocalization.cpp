@@ -143,4 +143,10 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
   return best;
 }
 
+void RelocalizationDriver::describe(StateArchive& archive) {
+  archive(field_current_, lost_frames_since_attempt_);
+  if (archive.reading()) field_ = {};
+  if (field_current_) archive(field_);
+}
+
 }  // namespace imufusion

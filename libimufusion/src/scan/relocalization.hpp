@@ -6,6 +6,7 @@
 #include <optional>
 
 #include "core/relocalizer.hpp"
+#include "core/state_archive.hpp"
 #include "scan/model_aligner.hpp"
 
 namespace imufusion {
@@ -42,6 +43,7 @@ class RelocalizationDriver {
   /// The model changed (a frame was fused): the distance field is built again at the next search.
   void model_changed() { field_current_ = false; }
   void reset();
+  void describe(StateArchive& archive);  // the changing state, for a saved scan
 
  private:
   double drift_radius(double lost_seconds) const;

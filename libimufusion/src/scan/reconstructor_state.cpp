@@ -1,0 +1,142 @@
+// Reconstructor::save and load: the scan as one file, to continue it later.
+//
+// Layout: "IMUFSCAN" (8 bytes), format version (uint32), CRC-32 of the payload (uint32), payload
+// size (uint64), then the payload written by StateArchive (core/state_archive.hpp): the
+// configuration, the pyramid level tracking ran at, the host state in the order
+// Impl::describe_state() lists it, and the volume's occupied hash slots and stored blocks. The
+// model raycast the next frame aligns to is not stored: it is raycast again from the volume at
+// its pose, which gives the same maps (a raycast reads the volume only).
+
+#include <array>
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <utility>
+
+#include "core/state_fields.hpp"
+#include "io/atomic_file.hpp"
+#include "scan/reconstructor_impl.hpp"
+
+namespace imufusion {
+namespace {
+
+constexpr std::array<char, 8> kMagic = {'I', 'M', 'U', 'F', 'S', 'C', 'A', 'N'};
+constexpr std::uint32_t kVersion = 1;
+constexpr std::size_t kHeaderBytes = 24;
+
+void describe_volume(StateArchive& a, gpu::TsdfVolume::Contents& c) {
+  a(c.hash_slots, c.allocated, c.frame_stamp, c.counters, c.slots, c.keys, c.values, c.stamps,
+    c.tsdf_weight, c.colors);
+}
+
+Error file_error(const std::filesystem::path& path, ErrorCode code, const std::string& what) {
+  return make_error(code, path.string() + ": " + what);
+}
+
+// Checks the header of a state file and returns its payload.
+Result<std::span<const std::uint8_t>> payload_of(const std::filesystem::path& path,
+                                                 const std::vector<std::uint8_t>& bytes) {
+  auto bad = [&](const std::string& what) {
+    return file_error(path, ErrorCode::kParseError, what);
+  };
+  if (bytes.size() < kHeaderBytes)
+    return bad("not a saved scan: " + std::to_string(bytes.size()) + " bytes, shorter than the " +
+               std::to_string(kHeaderBytes) + "-byte header");
+  if (std::memcmp(bytes.data(), kMagic.data(), kMagic.size()) != 0)
+    return bad("not a saved scan (no IMUFSCAN magic)");
+  std::uint32_t version = 0, crc = 0;
+  std::uint64_t size = 0;
+  std::memcpy(&version, bytes.data() + 8, 4);
+  std::memcpy(&crc, bytes.data() + 12, 4);
+  std::memcpy(&size, bytes.data() + 16, 8);
+  if (version != kVersion)
+    return file_error(path, ErrorCode::kUnsupported,
+                      "saved scan format version " + std::to_string(version) +
+                          ", this build reads version " + std::to_string(kVersion));
+  const std::size_t have = bytes.size() - kHeaderBytes;
+  if (size != have)
+    return bad("truncated or extended: the header promises " + std::to_string(size) +
+               " bytes of scan, the file holds " + std::to_string(have));
+  const std::span<const std::uint8_t> payload(bytes.data() + kHeaderBytes, have);
+  if (crc32(payload) != crc) return bad("corrupt: the checksum does not match the content");
+  return payload;
+}
+
+}  // namespace
+
+void Reconstructor::Impl::describe_state(StateArchive& a) {
+  Impl& m = *this;
+  a(m.trajectory, m.T_world_reference, m.has_reference, m.seed_gate_holding, m.frame_interval,
+    m.tracked_run, m.machine, m.pairing, m.prediction_calibration, m.relocalization, m.recovery);
+  bool inertial = m.navigator.has_value();
+  a(inertial);
+  if (inertial != m.navigator.has_value()) {
+    a.fail("the IMU state does not match imu.enabled");
+    return;
+  }
+  if (inertial) a(*m.navigator);
+}
+
+Status Reconstructor::save(const std::filesystem::path& path) const {
+  // A writing archive only reads what describe() lists.
+  Impl& m = const_cast<Impl&>(*impl_);
+  auto volume = m.volume.contents();
+  if (!volume) return file_error(path, volume.error().code, volume.error().message);
+  StateArchive a = StateArchive::writer();
+  ReconstructorConfig config = m.config;
+  int level = m.tracking_level;
+  a(config, level);
+  m.describe_state(a);
+  describe_volume(a, *volume);
+  const std::vector<std::uint8_t>& payload = a.bytes();
+  const std::uint32_t crc = crc32(payload);
+  const std::uint64_t size = payload.size();
+  return io::write_file_atomically(path, [&](std::FILE* f) -> Status {
+    const bool written = std::fwrite(kMagic.data(), 1, kMagic.size(), f) == kMagic.size() &&
+                         std::fwrite(&kVersion, 4, 1, f) == 1 && std::fwrite(&crc, 4, 1, f) == 1 &&
+                         std::fwrite(&size, 8, 1, f) == 1 &&
+                         std::fwrite(payload.data(), 1, payload.size(), f) == payload.size();
+    if (!written) return file_error(path, ErrorCode::kIoError, "cannot write the saved scan");
+    return {};
+  });
+}
+
+Result<Reconstructor> Reconstructor::load(const std::filesystem::path& path,
+                                          const DeviceOptions& device) {
+  auto bytes = io::read_file_bytes(path);
+  if (!bytes) return bytes.error();
+  auto payload = payload_of(path, *bytes);
+  if (!payload) return payload.error();
+  StateArchive a = StateArchive::reader(*payload);
+  ReconstructorConfig config;
+  int level = 0;
+  a(config, level);
+  if (!a.ok()) return file_error(path, ErrorCode::kParseError, a.error());
+  config.device = device;
+  if (Status valid = config.validate(); !valid.ok())
+    return file_error(path, ErrorCode::kParseError,
+                      "saved configuration: " + valid.error().message);
+  auto created = create(config);
+  if (!created) return file_error(path, created.error().code, created.error().message);
+  Impl& m = *created->impl_;
+  m.tracking_level = level;
+  gpu::TsdfVolume::Contents volume;
+  m.describe_state(a);
+  describe_volume(a, volume);
+  if (a.ok() && a.offset() != payload->size())
+    a.fail(std::to_string(payload->size() - a.offset()) + " bytes left over after the volume");
+  if (!a.ok()) return file_error(path, ErrorCode::kParseError, a.error());
+  if (level < 0 || level >= config.preprocess.levels)
+    return file_error(path, ErrorCode::kParseError,
+                      "tracking level " + std::to_string(level) + " outside the pyramid");
+  if (Status restored = m.volume.restore(volume); !restored.ok())
+    return file_error(path, restored.error().code, restored.error().message);
+  if (m.has_reference) {
+    FrameTimings timings;
+    if (Status s = m.set_reference(m.T_world_reference, timings); !s.ok())
+      return file_error(path, s.error().code, s.error().message);
+  }
+  return created;
+}
+
+}  // namespace imufusion
