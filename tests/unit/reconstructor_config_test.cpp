@@ -124,7 +124,7 @@ TEST(SensorPresets, PhoneToFTakesTheSensorsRangeAndNoise) {
   EXPECT_FLOAT_EQ(tof.preprocess.min_depth, static_cast<float>(sensor.min_depth));
   EXPECT_FLOAT_EQ(tof.preprocess.max_depth, static_cast<float>(sensor.max_depth));
   EXPECT_GT(tof.volume.voxel_size, kinect.volume.voxel_size);
-  for (double z = 0.7; z <= 4.0; z += 0.1) {
+  for (double z = 0.8; z <= 4.0; z += 0.1) {
     const double model = synth::tof_noise_sigma(z, 0.5, 1.0);
     EXPECT_NEAR(tof.icp.depth_noise.sigma(z), model, 0.15 * model) << "z " << z;
   }

@@ -1,7 +1,7 @@
 #pragma once
 // The scanner's settings per class of depth sensor: one set of defaults that the library, the
-// tools (imufusion-scan) and the Python bindings share. The measurements behind each preset:
-// bench/README.md, "Sensor presets".
+// tools (imufusion-scan, imufusion-fuse) and the Python bindings share. The measurements behind
+// each preset: bench/README.md, "Sensor presets" and "The phone-ToF preset".
 
 #include <optional>
 #include <string_view>
@@ -32,12 +32,12 @@ const char* to_string(SensorPreset sensor);
 std::optional<SensorPreset> parse_sensor_preset(std::string_view name);
 
 /// The scanner's configuration for `sensor` with the depth camera's `intrinsics` (frames must
-/// have their size); kPhoneToF differs from kKinect in the depth range, the depth noise model,
-/// the voxel size and the truncation (bench/README.md, "The phone-ToF preset"). With an IMU
-/// (`with_imu`) ICP starts from the gyro's rotation and takes at most 2 Gauss-Newton steps per
-/// frame; without, ICP alone takes up to 30. The camera-IMU mounting is left unknown (the scanner
-/// estimates its rotation): set inertial.T_camera_imu and inertial.T_camera_imu_known when it is
-/// known.
+/// have their size); kPhoneToF differs from kKinect in the depth range (0.2-4 m), the depth noise
+/// model (icp.depth_noise) and the voxel size (bench/README.md, "The phone-ToF preset"). With
+/// an IMU (`with_imu`) ICP starts from the gyro's rotation and takes at most 2 Gauss-Newton steps
+/// per frame; without, ICP alone takes up to 30. The camera-IMU mounting is left unknown (the
+/// scanner estimates its rotation): set inertial.T_camera_imu and inertial.T_camera_imu_known
+/// when it is known.
 ReconstructorConfig preset_config(SensorPreset sensor, const Intrinsics& intrinsics, bool with_imu);
 
 /// preset_config for a recorded sequence, as imufusion-scan scans one: its intrinsics with the

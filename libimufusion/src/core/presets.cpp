@@ -9,7 +9,7 @@ void apply_phone_tof(ReconstructorConfig& config) {
   // The sensor's range: nothing nearer than 0.2 m or farther than 4 m is measured.
   config.preprocess.min_depth = 0.2f;
   config.preprocess.max_depth = 4.0f;
-  // The sensor's noise, 1 % of z, as sigma(z) = a + b (z - z0)^2: within 15 % over 0.7-4 m.
+  // The sensor's noise, 1 % of z, as sigma(z) = a + b (z - z0)^2: within 15 % over 0.8-4 m.
   config.icp.depth_noise = DepthNoiseModel{0.0033, 0.00165, -1.0};
   config.volume.voxel_size = 0.015f;
 }
