@@ -19,6 +19,7 @@
 #include <iterator>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -47,7 +48,8 @@ struct Options {
   fs::path sequence;
   fs::path poses;
   fs::path out = "fused";
-  float voxel_size = 0.01f;
+  SensorPreset sensor = SensorPreset::kKinect;
+  std::optional<float> voxel_size;  // the preset's when not given
   long max_frames = -1;
   std::string device;
   bool quiet = false;
@@ -55,9 +57,11 @@ struct Options {
 
 int usage(std::ostream& out, int code) {
   out << "usage: imufusion-fuse SEQUENCE [--poses FILE] [--out DIR] [--voxel-size M] [--frames N]\n"
-         "                      [--device NAME|INDEX] [--quiet]\n"
+         "                      [--sensor kinect|phone-tof] [--device NAME|INDEX] [--quiet]\n"
          "Fuses SEQUENCE with known camera-to-world poses (default: its groundtruth.txt; TUM\n"
-         "format), writes DIR/mesh.glb, mesh.ply, preview.png, overview.png and summary.json.\n";
+         "format), writes DIR/mesh.glb, mesh.ply, preview.png, overview.png and summary.json.\n"
+         "--sensor picks the preset (default kinect; phone-tof: 240x180 phone ToF), whose voxel\n"
+         "size applies unless --voxel-size is given.\n";
   return code;
 }
 
@@ -83,8 +87,12 @@ int parse(int argc, char** argv, Options& opt) {
         opt.device = v;
       else if (a == "--voxel-size") {
         opt.voxel_size = std::strtof(v, &end);
-        if (*end != '\0' || !(opt.voxel_size > 0))
+        if (*end != '\0' || !(*opt.voxel_size > 0))
           return (std::cerr << "bad --voxel-size " << v << "\n", 2);
+      } else if (a == "--sensor") {
+        const auto sensor = parse_sensor_preset(v);
+        if (!sensor) return (std::cerr << "bad --sensor " << v << " (kinect or phone-tof)\n", 2);
+        opt.sensor = *sensor;
       } else if (a == "--frames") {
         opt.max_frames = std::strtol(v, &end, 10);
         if (*end != '\0' || opt.max_frames <= 0)
@@ -120,8 +128,8 @@ ReconstructorConfig fuse_config(const Options& opt, const SequenceReader& reader
   k.width = reader.info().width;
   k.height = reader.info().height;
   // The poses are given: nothing to track, no IMU.
-  ReconstructorConfig config = preset_config(SensorPreset::kKinect, k, /*with_imu=*/false);
-  config.volume.voxel_size = opt.voxel_size;
+  ReconstructorConfig config = preset_config(opt.sensor, k, /*with_imu=*/false);
+  if (opt.voxel_size) config.volume.voxel_size = *opt.voxel_size;
   config.device.selector = opt.device;
   return config;
 }

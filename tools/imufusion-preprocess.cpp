@@ -111,7 +111,7 @@ double median(std::vector<double> v) {
 Result<SequenceReader> open_sequence(const Options& opt, fs::path& path) {
   path = opt.sequence;
   if (opt.sequence.empty()) {
-    auto demo = tools::ensure_demo_sequence(opt.demo_dir, opt.demo_frames);
+    auto demo = tools::ensure_demo_sequence(opt.demo_dir, opt.demo_frames, SensorPreset::kKinect);
     if (!demo) return demo.error();
     path = *demo;
   }

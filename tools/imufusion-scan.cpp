@@ -108,8 +108,8 @@ ReconstructorConfig make_config(const ScanOptions& opt, const SequenceReader* re
                                 const FrameSource* source, const Intrinsics& k, bool sequence_imu) {
   const bool with_imu =
       !opt.no_imu && (opt.imu_udp || (reader != nullptr && reader->has_imu() && sequence_imu));
-  ReconstructorConfig config = preset_config(SensorPreset::kKinect, k, with_imu);
-  config.volume.voxel_size = opt.voxel_size;
+  ReconstructorConfig config = preset_config(opt.sensor, k, with_imu);
+  if (opt.voxel_size) config.volume.voxel_size = *opt.voxel_size;
   config.volume.block_capacity = opt.block_capacity;
   config.volume.initial_blocks = opt.initial_blocks;
   config.tracking_level = opt.tracking_level;
@@ -433,7 +433,7 @@ int main(int argc, char** argv) {
 
   fs::path input = opt.input;
   if (input.empty()) {
-    auto demo = tools::ensure_demo_sequence(opt.demo_dir, opt.demo_frames);
+    auto demo = tools::ensure_demo_sequence(opt.demo_dir, opt.demo_frames, opt.sensor);
     if (!demo) return fail(demo.error().describe());
     input = *demo;
   }

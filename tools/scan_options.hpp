@@ -30,7 +30,8 @@ struct ScanOptions {
   std::optional<int> icp_iterations;
   std::optional<TranslationModel> translation;
   int recovery_frames = TrackingConfig{}.recovery_frames;
-  float voxel_size = 0.01f;
+  SensorPreset sensor = SensorPreset::kKinect;
+  std::optional<float> voxel_size;  // the preset's when not given
   std::uint32_t block_capacity = VolumeConfig{}.block_capacity;
   std::uint32_t initial_blocks = VolumeConfig{}.initial_blocks;
   int tracking_level = ReconstructorConfig{}.tracking_level;
@@ -50,7 +51,8 @@ struct ScanOptions {
 
 // Writes the usage text to `out`; returns `code`.
 inline int scan_usage(std::ostream& out, int code) {
-  out << "usage: imufusion-scan [SEQUENCE] [--out DIR] [--no-imu] [--icp-iterations N]\n"
+  out << "usage: imufusion-scan [SEQUENCE] [--out DIR] [--sensor kinect|phone-tof] [--no-imu]\n"
+         "                      [--icp-iterations N]\n"
          "                      [--voxel-size M] [--frames N] [--poses FILE] [--device "
          "NAME|INDEX]\n"
          "                      [--list-devices] [--translation "
@@ -67,6 +69,9 @@ inline int scan_usage(std::ostream& out, int code) {
          "the embedded demo room, synthesized into --demo-dir, default ./demo) and writes DIR "
          "(default ./scan)/trajectory.txt, frames.csv, mesh.glb, mesh.ply,\n"
          "preview.png, overview.png and summary.json.\n"
+         "  --sensor NAME            the sensor's preset: kinect (default; 640x480 structured "
+         "light\n"
+         "                           or ToF, 0.3-5 m) or phone-tof (240x180 phone ToF, 0.2-4 m)\n"
          "  --no-imu                 track without the gyroscope (the ICP-only baseline)\n"
          "  --icp-iterations N       Gauss-Newton steps per frame at most (default "
       << kPresetIcpIterationsWithImu << " with IMU, " << kPresetIcpIterationsWithoutImu
@@ -149,7 +154,11 @@ inline int parse_scan_value(const std::string& a, const std::string& v, ScanOpti
     opt.resume = v;
   else if (a == "--imu-udp-address")
     opt.imu_udp_address = v;
-  else if (a == "--depth-mode") {
+  else if (a == "--sensor") {
+    const auto sensor = parse_sensor_preset(v);
+    if (!sensor) return bad("kinect or phone-tof");
+    opt.sensor = *sensor;
+  } else if (a == "--depth-mode") {
     auto mode = parse_depth_mode(v);
     if (!mode) return (std::cerr << "error: " << mode.error().describe() << "\n", 2);
     opt.depth_mode = *mode;

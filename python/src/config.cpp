@@ -26,14 +26,23 @@ void bind_parts(py::module_& m) {
   py::class_<PreprocessConfig>(m, "PreprocessConfig")
       .def_readwrite("levels", &PreprocessConfig::levels, "pyramid levels (default 3)")
       .def_readwrite("min_depth", &PreprocessConfig::min_depth, "metres (default 0.3)")
-      .def_readwrite("max_depth", &PreprocessConfig::max_depth, "metres (default 5)");
+      .def_readwrite("max_depth", &PreprocessConfig::max_depth, "metres (default 5)")
+      .def_readwrite("bilateral_sigma_depth", &PreprocessConfig::bilateral_sigma_depth,
+                     "metres (default 0.03)");
+  py::class_<DepthNoiseModel>(m, "DepthNoiseModel",
+                              "the sensor's axial noise sigma(z) = a + b (z - z0)^2, metres")
+      .def(py::init<>())
+      .def_readwrite("a", &DepthNoiseModel::a, "metres (default 0.0012)")
+      .def_readwrite("b", &DepthNoiseModel::b, "1/metre (default 0.0019)")
+      .def_readwrite("z0", &DepthNoiseModel::z0, "metres (default 0.4)");
   py::class_<IcpConfig>(m, "IcpConfig")
       .def_readwrite("max_total_iterations", &IcpConfig::max_total_iterations,
                      "Gauss-Newton steps per frame at most while tracking")
       .def_readwrite("iterations_per_level", &IcpConfig::iterations_per_level,
                      "steps allowed per pyramid level, level 0 (full size) first")
       .def_readwrite("max_distance", &IcpConfig::max_distance, "m per level")
-      .def_readwrite("max_normal_angle_deg", &IcpConfig::max_normal_angle_deg, "deg per level");
+      .def_readwrite("max_normal_angle_deg", &IcpConfig::max_normal_angle_deg, "deg per level")
+      .def_readwrite("depth_noise", &IcpConfig::depth_noise, "the sensor's DepthNoiseModel");
   py::class_<VolumeConfig>(m, "VolumeConfig")
       .def_readwrite("voxel_size", &VolumeConfig::voxel_size, "metres (default 0.01)")
       .def_readwrite("truncation_voxels", &VolumeConfig::truncation_voxels, "default 4")

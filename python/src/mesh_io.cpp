@@ -2,6 +2,7 @@
 #include <pybind11/stl/filesystem.h>
 
 #include <cstring>
+#include <optional>
 
 #include "bindings.hpp"
 #include "convert.hpp"
@@ -93,23 +94,33 @@ py::dict summary_dict(const synth::SynthSummary& s) {
   return d;
 }
 
+// The sensor named `name` (synth::parse_sensor_kind) or a ValueError.
+synth::SensorKind sensor_kind(const std::string& name) {
+  const auto kind = synth::parse_sensor_kind(name);
+  if (!kind) throw py::value_error("sensor: expected 'kinect' or 'phone-tof', got '" + name + "'");
+  return *kind;
+}
+
 void bind_synthesize(py::module_& m) {
   const synth::SynthConfig defaults;
   m.def(
       "synthesize",
       [](const std::filesystem::path& out_dir, const std::string& scene, int frames,
-         std::uint64_t seed, int width, int height, double fps, bool color, bool depth_noise,
-         bool imu_noise, bool overwrite) {
+         std::uint64_t seed, std::optional<int> width, std::optional<int> height,
+         std::optional<double> fps, bool color, bool depth_noise, bool imu_noise, bool overwrite,
+         const std::string& sensor) {
         synth::SynthConfig c;
         const auto kind = synth::parse_scene_kind(scene);
         if (!kind)
           throw py::value_error("scene: expected 'room', 'wall' or 'fast', got '" + scene + "'");
         c.scene = *kind;
+        c.sensor = sensor_kind(sensor);
+        const synth::SensorFormat format = synth::sensor_format(c.sensor);
         c.frames = frames;
         c.seed = seed;
-        c.width = width;
-        c.height = height;
-        c.fps = fps;
+        c.width = width.value_or(format.width);
+        c.height = height.value_or(format.height);
+        c.fps = fps.value_or(format.fps);
         c.color = color;
         c.depth_noise = depth_noise;
         c.imu_noise = imu_noise;
@@ -121,12 +132,14 @@ void bind_synthesize(py::module_& m) {
         return summary_dict(unwrap(std::move(summary)));
       },
       py::arg("out_dir"), py::arg("scene") = "room", py::arg("frames") = defaults.frames,
-      py::arg("seed") = defaults.seed, py::arg("width") = defaults.width,
-      py::arg("height") = defaults.height, py::arg("fps") = defaults.fps,
+      py::arg("seed") = defaults.seed, py::arg("width") = py::none(),
+      py::arg("height") = py::none(), py::arg("fps") = py::none(),
       py::arg("color") = defaults.color, py::arg("depth_noise") = defaults.depth_noise,
       py::arg("imu_noise") = defaults.imu_noise, py::arg("overwrite") = defaults.overwrite,
-      "Renders a synthetic sequence (scene 'room', 'wall' or 'fast') with ground truth and IMU "
-      "into out_dir; imufusion-scan's demo is synthesize(dir, 'room', frames=60)");
+      py::arg("sensor") = synth::to_string(defaults.sensor),
+      "Renders a synthetic sequence (scene 'room', 'wall' or 'fast'; sensor 'kinect' or "
+      "'phone-tof', whose size and fps are the defaults) with ground truth and IMU into out_dir; "
+      "imufusion-scan's demo is synthesize(dir, 'room', frames=60)");
 }
 
 }  // namespace

@@ -21,8 +21,9 @@ void name_values_as_library(py::enum_<Enum>& e) {
 
 void bind_enums(py::module_& m) {
   py::enum_<SensorPreset> preset(m, "SensorPreset",
-                                 "Classes of depth sensor with measured defaults");
-  preset.value("KINECT", SensorPreset::kKinect);
+                                 "Classes of depth sensor with measured defaults: KINECT "
+                                 "(640x480 structured light), PHONE_TOF (240x180 phone ToF)");
+  preset.value("KINECT", SensorPreset::kKinect).value("PHONE_TOF", SensorPreset::kPhoneToF);
   name_values_as_library(preset);
   py::enum_<TrackingStatus> status(m, "TrackingStatus");
   status.value("TRACKING", TrackingStatus::kTracking)

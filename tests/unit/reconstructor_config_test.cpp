@@ -87,19 +87,47 @@ TEST(ReconstructorConfig, RejectsSettingsOutOfRange) {
 // A preset is a valid configuration for the camera it is given, with the ICP budget of its IMU
 // use: the gyro's seed needs 2 Gauss-Newton steps per frame, ICP alone up to 30.
 TEST(SensorPresets, AreValidAndFollowTheImu) {
-  const Intrinsics k = synth::default_intrinsics(640, 480);
-  for (const bool imu : {true, false}) {
-    const ReconstructorConfig c = preset_config(SensorPreset::kKinect, k, imu);
-    EXPECT_TRUE(c.validate().ok()) << c.validate().error().describe();
-    EXPECT_EQ(c.intrinsics.width, 640);
-    EXPECT_EQ(c.intrinsics.fx, k.fx);
-    EXPECT_EQ(c.imu.enabled, imu);
-    EXPECT_EQ(c.icp.max_total_iterations, imu ? 2 : 30);
-    EXPECT_FALSE(c.inertial.T_camera_imu_known);  // the mounting is the app's to give
+  for (const SensorPreset sensor : {SensorPreset::kKinect, SensorPreset::kPhoneToF}) {
+    const Intrinsics k = sensor == SensorPreset::kKinect ? synth::default_intrinsics(640, 480)
+                                                         : synth::default_intrinsics(240, 180);
+    for (const bool imu : {true, false}) {
+      const ReconstructorConfig c = preset_config(sensor, k, imu);
+      EXPECT_TRUE(c.validate().ok()) << c.validate().error().describe();
+      EXPECT_EQ(c.intrinsics.width, k.width);
+      EXPECT_EQ(c.intrinsics.fx, k.fx);
+      EXPECT_EQ(c.imu.enabled, imu);
+      EXPECT_EQ(c.icp.max_total_iterations, imu ? 2 : 30);
+      EXPECT_FALSE(c.inertial.T_camera_imu_known);  // the mounting is the app's to give
+    }
+    EXPECT_EQ(parse_sensor_preset(to_string(sensor)), sensor);
+    EXPECT_FALSE(preset_config(sensor, Intrinsics{}, true).validate().ok());
   }
-  EXPECT_EQ(parse_sensor_preset(to_string(SensorPreset::kKinect)), SensorPreset::kKinect);
+  EXPECT_STREQ(to_string(SensorPreset::kKinect), "kinect");
+  EXPECT_STREQ(to_string(SensorPreset::kPhoneToF), "phone-tof");
   EXPECT_FALSE(parse_sensor_preset("kinect2").has_value());
-  EXPECT_FALSE(preset_config(SensorPreset::kKinect, Intrinsics{}, true).validate().ok());
+  EXPECT_FALSE(parse_sensor_preset("phone_tof").has_value());
+}
+
+// The Kinect preset is the library's member defaults; the phone ToF one takes the sensor's
+// 0.2-4 m range, its noise (the generator's model: 1 % of z) and larger voxels.
+TEST(SensorPresets, PhoneToFTakesTheSensorsRangeAndNoise) {
+  const ReconstructorConfig defaults;
+  const ReconstructorConfig kinect =
+      preset_config(SensorPreset::kKinect, synth::default_intrinsics(640, 480), true);
+  EXPECT_EQ(kinect.preprocess.min_depth, defaults.preprocess.min_depth);
+  EXPECT_EQ(kinect.volume.voxel_size, defaults.volume.voxel_size);
+  EXPECT_EQ(kinect.icp.depth_noise.a, defaults.icp.depth_noise.a);
+
+  const ReconstructorConfig tof =
+      preset_config(SensorPreset::kPhoneToF, synth::default_intrinsics(240, 180), true);
+  const synth::SensorModel sensor = synth::sensor_model(synth::SensorKind::kPhoneToF);
+  EXPECT_FLOAT_EQ(tof.preprocess.min_depth, static_cast<float>(sensor.min_depth));
+  EXPECT_FLOAT_EQ(tof.preprocess.max_depth, static_cast<float>(sensor.max_depth));
+  EXPECT_GT(tof.volume.voxel_size, kinect.volume.voxel_size);
+  for (double z = 0.8; z <= 4.0; z += 0.1) {
+    const double model = synth::tof_noise_sigma(z, 0.5, 1.0);
+    EXPECT_NEAR(tof.icp.depth_noise.sigma(z), model, 0.15 * model) << "z " << z;
+  }
 }
 
 }  // namespace

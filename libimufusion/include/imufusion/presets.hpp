@@ -1,7 +1,7 @@
 #pragma once
 // The scanner's settings per class of depth sensor: one set of defaults that the library, the
-// tools (imufusion-scan) and the Python bindings share. The measurements behind each preset:
-// bench/README.md, "Sensor presets".
+// tools (imufusion-scan, imufusion-fuse) and the Python bindings share. The measurements behind
+// each preset: bench/README.md, "Sensor presets" and "The phone-ToF preset".
 
 #include <optional>
 #include <string_view>
@@ -20,18 +20,24 @@ enum class SensorPreset {
   /// RGB-D recordings): the sensor modelled by the project's generator and the independent
   /// renderer, and recorded in TUM fr1_xyz.
   kKinect,
+  /// A phone time-of-flight module of 2019-2021 phones, 240x180-class at 30 Hz, 0.2-4 m, noise
+  /// about 1 % of the depth, flying pixels at depth edges (Sony IMX316 class, Android DEPTH16):
+  /// measured on the project's generator's model of one (synth::SensorKind::kPhoneToF) only.
+  kPhoneToF,
 };
 
-/// "kinect" for kKinect.
+/// "kinect" for kKinect, "phone-tof" for kPhoneToF.
 const char* to_string(SensorPreset sensor);
 /// The preset named `name` (as to_string writes it), or nothing.
 std::optional<SensorPreset> parse_sensor_preset(std::string_view name);
 
 /// The scanner's configuration for `sensor` with the depth camera's `intrinsics` (frames must
-/// have their size). With an IMU (`with_imu`) ICP starts from the gyro's rotation and takes at
-/// most 2 Gauss-Newton steps per frame; without, ICP alone takes up to 30. The camera-IMU
-/// mounting is left unknown (the scanner estimates its rotation): set inertial.T_camera_imu and
-/// inertial.T_camera_imu_known when it is known.
+/// have their size); kPhoneToF differs from kKinect in the depth range (0.2-4 m), the depth noise
+/// model (icp.depth_noise) and the voxel size (bench/README.md, "The phone-ToF preset"). With
+/// an IMU (`with_imu`) ICP starts from the gyro's rotation and takes at most 2 Gauss-Newton steps
+/// per frame; without, ICP alone takes up to 30. The camera-IMU mounting is left unknown (the
+/// scanner estimates its rotation): set inertial.T_camera_imu and inertial.T_camera_imu_known
+/// when it is known.
 ReconstructorConfig preset_config(SensorPreset sensor, const Intrinsics& intrinsics, bool with_imu);
 
 /// preset_config for a recorded sequence, as imufusion-scan scans one: its intrinsics with the

@@ -110,17 +110,65 @@ double distance_to_surface(const Scene& scene, const Eigen::Vector3d& point);
 /// width x height (fx by width / 640, fy by height / 480, pixel centres kept consistent).
 Intrinsics default_intrinsics(int width = 640, int height = 480);
 
-/// The depth sensor model applied by render_depth().
+/// The depth sensors the generator models.
+enum class SensorKind {
+  /// Kinect v1 structured light: disparity-quantized depth (1/5000 m steps), Kinect v1 noise
+  /// (depth_noise_sigma), no depth next to depth edges, 0.4-4.5 m.
+  kKinect,
+  /// A phone time-of-flight module of 2019-2021 phones (240x180 at 30 Hz, Sony IMX316 class,
+  /// Android DEPTH16: millimetre steps, 13 bits): noise as tof_noise_sigma, flying pixels at
+  /// depth edges, no depth where the returned amplitude is weak, 0.2-4 m.
+  kPhoneToF,
+};
+
+/// "kinect" or "phone-tof".
+const char* to_string(SensorKind kind);
+/// The kind named `name` (as to_string writes it); nullopt for anything else.
+std::optional<SensorKind> parse_sensor_kind(std::string_view name);
+
+/// The depth sensor model applied by render_depth(); sensor_model() gives each kind's values.
 struct SensorModel {
-  bool depth_noise = true;   // axial Gaussian noise, sigma(z) = 0.0012 + 0.0019 (z - 0.4)^2 m
-  bool edge_dropout = true;  // no depth next to depth discontinuities (one pixel each side)
+  SensorKind kind = SensorKind::kKinect;  // which noise and depth-edge model applies
+  /// Axial Gaussian noise: Kinect sigma(z) = 0.0012 + 0.0019 (z - 0.4)^2 m; phone ToF
+  /// tof_noise_sigma(z, reflectance, cos incidence).
+  bool depth_noise = true;
+  /// Kinect: no depth next to depth discontinuities (one pixel each side). Phone ToF: such a
+  /// pixel is a flying pixel (kFlyingPixelShare) or has no depth.
+  bool edge_dropout = true;
   double max_incidence_deg = 78.0;          // no depth where the surface is seen more obliquely
   double min_depth = 0.4, max_depth = 4.5;  // metres along the optical axis, 0 outside
   double depth_scale = 5000.0;              // raw units per metre (quantization 1/5000 m)
+  /// 1/m^2: no depth where reflectance * cos(incidence) / z^2, the returned amplitude relative
+  /// to a white surface at 1 m, is below this (a ToF camera's low-confidence pixels). 0: off.
+  double min_amplitude = 0.0;
 };
+
+/// The model of `kind`: SensorModel's defaults for kKinect; for kPhoneToF 0.2-4 m, 1/1000 m
+/// steps, min_amplitude 0.02 (a grey surface, reflectance 0.5, head-on to 5 m).
+SensorModel sensor_model(SensorKind kind);
+
+/// Image size (px) and frame rate (Hz) the kind delivers: 640x480 at 30 Hz for kKinect,
+/// 240x180 at 30 Hz for kPhoneToF (the DEPTH16 stream of IMX316-class phones).
+struct SensorFormat {
+  int width = 640, height = 480;
+  double fps = 30.0;
+};
+SensorFormat sensor_format(SensorKind kind);
 
 /// Axial depth noise standard deviation of a Kinect v1 (Nguyen et al. 2012), metres.
 double depth_noise_sigma(double z);
+
+/// Axial depth noise of the phone ToF model, metres: 1 % of z on a surface of reflectance 0.5
+/// (mean albedo) seen head-on, the error Sony states for its DepthSense IMX316/IMX516 sensors;
+/// it scales as 1 / sqrt(reflectance * cos(incidence)), the shot noise of the returned amplitude
+/// (Lange and Seitz, IEEE J. Quantum Electron. 2001). The product is floored at 0.01.
+double tof_noise_sigma(double z, double reflectance, double cos_incidence);
+
+/// Phone ToF: the share of depth-edge pixels that are flying pixels, their depth a mix of both
+/// surfaces' (the far surface's weight uniform in [0, 0.5]: the pixel's centre lies on its own
+/// surface); the others have no depth (the phone's confidence filter; Hansard et al.,
+/// "Time-of-Flight Cameras", Springer 2012, ch. 1 on mixed pixels).
+inline constexpr double kFlyingPixelShare = 0.5;
 
 /// Noiseless z-depth (metres along the optical axis) of every pixel, 0 where no surface is hit.
 /// No sensor model: no range limits, no dropouts, no quantization beyond float.
@@ -249,7 +297,10 @@ struct SynthConfig {
   double imu_rate = 200.0;
   bool color = true;
   bool depth_noise = true;  // Gaussian depth noise (range limits, dropouts, quantization stay)
-  bool imu_noise = true;    // IMU white noise and biases
+  /// The depth sensor's model (sensor_model()); width, height and fps are set on their own
+  /// (sensor_format() gives the kind's).
+  SensorKind sensor = SensorKind::kKinect;
+  bool imu_noise = true;              // IMU white noise and biases
   double gyro_noise_density = 0.003;  // rad/s/sqrt(Hz)
   double accel_noise_density = 0.01;  // m/s^2/sqrt(Hz)
   double start_time = 1000.0;         // clock of the first depth frame, seconds

@@ -1,9 +1,11 @@
-// CPU ray casting of a Scene into depth and colour images, and the Kinect-like depth sensor model.
+// CPU ray casting of a Scene into depth and colour images, and the depth sensor models (Kinect v1,
+// phone time-of-flight).
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <thread>
 
 #include "imufusion/synth.hpp"
@@ -18,6 +20,7 @@ namespace {
 struct PixelHit {
   double z = 0.0;           // metres along the optical axis, 0 = nothing hit
   float cos_incidence = 0;  // |cos| of the angle between the ray and the surface normal
+  float reflectance = 0;    // mean of the albedo's channels
   int primitive = -1;
   Eigen::Vector3f shade = Eigen::Vector3f::Zero();  // shaded colour in [0, 1]
 };
@@ -56,6 +59,7 @@ std::vector<PixelHit> cast_pixels(const Scene& scene, const Eigen::Isometry3d& T
         PixelHit& p = pixels[static_cast<std::size_t>(v) * k.width + u];
         p.z = hit->t;
         p.cos_incidence = static_cast<float>(std::abs(hit->normal.dot(d)) / d.norm());
+        p.reflectance = hit->albedo.mean();
         p.primitive = hit->primitive;
         if (with_shade) p.shade = shade(*hit);
       }
@@ -71,21 +75,59 @@ std::vector<PixelHit> cast_pixels(const Scene& scene, const Eigen::Isometry3d& T
   return pixels;
 }
 
-/// A pixel next to a depth discontinuity: a 4-neighbour on another surface whose depth differs
-/// by more than max(2 cm, 3% of z). Contacts (a box on the floor) are continuous and kept.
-bool at_depth_edge(const std::vector<PixelHit>& px, int w, int h, int u, int v) {
+/// For a pixel next to a depth discontinuity (a 4-neighbour on another surface whose depth
+/// differs by more than max(2 cm, 3% of z), or on no surface), the depth across it: the
+/// neighbour's across the largest jump, or 0 where a neighbour has none. Nothing elsewhere.
+/// Contacts (a box on the floor) are continuous and kept.
+std::optional<double> depth_across_edge(const std::vector<PixelHit>& px, int w, int h, int u,
+                                        int v) {
   const PixelHit& p = px[static_cast<std::size_t>(v) * w + u];
   const double threshold = std::max(0.02, 0.03 * p.z);
   const int du[4] = {1, -1, 0, 0};
   const int dv[4] = {0, 0, 1, -1};
+  std::optional<double> across;
   for (int i = 0; i < 4; ++i) {
     const int nu = u + du[i], nv = v + dv[i];
     if (nu < 0 || nv < 0 || nu >= w || nv >= h) continue;
     const PixelHit& n = px[static_cast<std::size_t>(nv) * w + nu];
     if (n.primitive == p.primitive) continue;
-    if (n.primitive < 0 || std::abs(n.z - p.z) > threshold) return true;
+    if (n.primitive < 0) return 0.0;
+    const double jump = std::abs(n.z - p.z);
+    if (jump > threshold && (!across || jump > std::abs(*across - p.z))) across = n.z;
   }
-  return false;
+  return across;
+}
+
+std::uint16_t quantize(double z, const SensorModel& model) {
+  const double raw = std::round(z * model.depth_scale);
+  return static_cast<std::uint16_t>(std::clamp(raw, 1.0, 65535.0));
+}
+
+/// Kinect v1: no depth at depth edges, depth_noise_sigma(z).
+std::uint16_t kinect_depth(const std::vector<PixelHit>& px, const Intrinsics& k,
+                           const SensorModel& model, int u, int v, double noise) {
+  const PixelHit& p = px[static_cast<std::size_t>(v) * k.width + u];
+  if (model.edge_dropout && depth_across_edge(px, k.width, k.height, u, v)) return 0;
+  return quantize(model.depth_noise ? p.z + noise * depth_noise_sigma(p.z) : p.z, model);
+}
+
+/// Phone ToF: no depth where the amplitude is weak; at depth edges a flying pixel or none
+/// (`mix` uniform in [0, 1) decides); tof_noise_sigma.
+std::uint16_t tof_depth(const std::vector<PixelHit>& px, const Intrinsics& k,
+                        const SensorModel& model, int u, int v, double noise, double mix) {
+  const PixelHit& p = px[static_cast<std::size_t>(v) * k.width + u];
+  if (p.reflectance * p.cos_incidence / (p.z * p.z) < model.min_amplitude) return 0;
+  double z = p.z;
+  if (model.edge_dropout) {
+    if (const std::optional<double> across = depth_across_edge(px, k.width, k.height, u, v)) {
+      if (*across <= 0.0 || mix >= kFlyingPixelShare) return 0;
+      // The far surface's share of the footprint, uniform in [0, 0.5).
+      z += (mix / kFlyingPixelShare) * 0.5 * (*across - p.z);
+    }
+  }
+  if (model.depth_noise) z += noise * tof_noise_sigma(z, p.reflectance, p.cos_incidence);
+  if (z < model.min_depth || z > model.max_depth) return 0;
+  return quantize(z, model);
 }
 
 DepthImage apply_sensor_model(const std::vector<PixelHit>& px, const Intrinsics& k,
@@ -97,19 +139,20 @@ DepthImage apply_sensor_model(const std::vector<PixelHit>& px, const Intrinsics&
   depth.data.assign(px.size(), 0);
   const float min_cos =
       static_cast<float>(std::cos(model.max_incidence_deg * std::numbers::pi / 180.0));
+  const bool tof = model.kind == SensorKind::kPhoneToF;
   Rng rng(seed);
   for (int v = 0; v < k.height; ++v) {
     for (int u = 0; u < k.width; ++u) {
       const std::size_t i = static_cast<std::size_t>(v) * k.width + u;
-      // One draw per pixel whatever happens to it, so that noise stays aligned across images.
+      // The same draws per pixel whatever happens to it, so that noise stays aligned across
+      // images.
       const double noise = rng.normal();
+      const double mix = tof ? rng.uniform() : 0.0;
       const PixelHit& p = px[i];
       if (p.primitive < 0 || p.z < model.min_depth || p.z > model.max_depth) continue;
       if (p.cos_incidence < min_cos) continue;
-      if (model.edge_dropout && at_depth_edge(px, k.width, k.height, u, v)) continue;
-      const double z = model.depth_noise ? p.z + noise * depth_noise_sigma(p.z) : p.z;
-      const double raw = std::round(z * model.depth_scale);
-      depth.data[i] = static_cast<std::uint16_t>(std::clamp(raw, 1.0, 65535.0));
+      depth.data[i] =
+          tof ? tof_depth(px, k, model, u, v, noise, mix) : kinect_depth(px, k, model, u, v, noise);
     }
   }
   return depth;
@@ -144,7 +187,45 @@ Intrinsics default_intrinsics(int width, int height) {
   return k;
 }
 
+const char* to_string(SensorKind kind) {
+  switch (kind) {
+    case SensorKind::kKinect:
+      return "kinect";
+    case SensorKind::kPhoneToF:
+      return "phone-tof";
+  }
+  return "unknown";
+}
+
+std::optional<SensorKind> parse_sensor_kind(std::string_view name) {
+  for (const SensorKind kind : {SensorKind::kKinect, SensorKind::kPhoneToF}) {
+    if (name == to_string(kind)) return kind;
+  }
+  return std::nullopt;
+}
+
+SensorModel sensor_model(SensorKind kind) {
+  SensorModel model;
+  model.kind = kind;
+  if (kind == SensorKind::kPhoneToF) {
+    model.min_depth = 0.2;
+    model.max_depth = 4.0;
+    model.depth_scale = 1000.0;  // DEPTH16: millimetres
+    model.min_amplitude = 0.02;
+  }
+  return model;
+}
+
+SensorFormat sensor_format(SensorKind kind) {
+  if (kind == SensorKind::kPhoneToF) return {240, 180, 30.0};
+  return {};
+}
+
 double depth_noise_sigma(double z) { return 0.0012 + 0.0019 * (z - 0.4) * (z - 0.4); }
+
+double tof_noise_sigma(double z, double reflectance, double cos_incidence) {
+  return 0.01 * z * std::sqrt(0.5 / std::max(0.01, reflectance * cos_incidence));
+}
 
 FloatImage raycast_depth(const Scene& scene, const Eigen::Isometry3d& T_world_camera,
                          const Intrinsics& intrinsics) {

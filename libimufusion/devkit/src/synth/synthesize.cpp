@@ -62,7 +62,7 @@ Status write_into(const SynthConfig& config, const fs::path& directory, SynthSum
   const Scene scene = make_scene(config.scene, config.seed);
   const CameraMotion motion(config.scene, config.seed, config.start_time);
   const Intrinsics intrinsics = default_intrinsics(config.width, config.height);
-  SensorModel model;
+  SensorModel model = sensor_model(config.sensor);
   model.depth_noise = config.depth_noise;
 
   for (int i = 0; i < config.frames; ++i) {
@@ -108,6 +108,10 @@ Status write_into(const SynthConfig& config, const fs::path& directory, SynthSum
       {"source", "imufusion-synth"},
   };
   for (const auto& [key, value] : info) IMUFUSION_RETURN_IF_ERROR(writer.set_info(key, value));
+  // Kinect sequences keep the lines they always had.
+  if (config.sensor != SensorKind::kKinect) {
+    IMUFUSION_RETURN_IF_ERROR(writer.set_info("sensor", to_string(config.sensor)));
+  }
   if (const std::optional<TimeSpan> stretch = motion.wall_stretch()) {
     IMUFUSION_RETURN_IF_ERROR(writer.set_info(
         "wall_stretch", format_number(stretch->begin, 6) + " " + format_number(stretch->end, 6)));
