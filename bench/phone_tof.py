@@ -49,7 +49,7 @@ def scan(build, sequence, out, extra):
     ate = json.loads(subprocess.run(
         [str(build / "tools/imufusion-eval"), str(sequence / "groundtruth.txt"),
          str(out / "trajectory.txt"), "--json"], check=True, capture_output=True,
-        text=True).stdout)["ate"]["rmse"]
+        text=True).stdout)["ate_rmse"]
     with open(out / "frames.csv") as f:
         lost = sum(1 for row in csv.DictReader(f) if row["status"] != "tracking")
     return ate, lost
