@@ -248,9 +248,8 @@ void Preprocessor::record(CommandSequence& seq, int first_map_level) const {
   const auto hf = static_cast<std::uint32_t>(levels_[f].height);
   const float ss = bilateral_sigma_space_at_level(config_, filter_level);
   const float sd = config_.bilateral_sigma_depth;
-  const layout::BilateralParams bilateral{
-      wf, hf, bilateral_radius_at_level(config_, filter_level), 1.0f / (2 * ss * ss),
-      1.0f / (2 * sd * sd)};
+  const layout::BilateralParams bilateral{wf, hf, bilateral_radius_at_level(config_, filter_level),
+                                          1.0f / (2 * ss * ss), 1.0f / (2 * sd * sd)};
   seq.dispatch(bilateral_, {filter_level == 0 ? &raw_metres_ : &filter_input_, &depth_[f]},
                bilateral, wf, hf, level_label("bilateral", filter_level));
   for (int level = filter_level + 1; level < config_.levels; ++level) {

@@ -130,10 +130,9 @@ PreprocessedFrame preprocess(const DepthImage& raw, const Intrinsics& intrinsics
   frame.depth.push_back(frame.raw_depth);
   for (int level = 1; level <= first_map_level; ++level)
     frame.depth.push_back(pyramid_down(frame.depth.back(), config.max_jump_fraction));
-  frame.depth.back() = bilateral(frame.depth.back(),
-                                 bilateral_radius_at_level(config, first_map_level),
-                                 bilateral_sigma_space_at_level(config, first_map_level),
-                                 config.bilateral_sigma_depth);
+  frame.depth.back() = bilateral(
+      frame.depth.back(), bilateral_radius_at_level(config, first_map_level),
+      bilateral_sigma_space_at_level(config, first_map_level), config.bilateral_sigma_depth);
   for (int level = first_map_level + 1; level < config.levels; ++level)
     frame.depth.push_back(pyramid_down(frame.depth.back(), config.max_jump_fraction));
   frame.vertices.resize(static_cast<std::size_t>(config.levels));
