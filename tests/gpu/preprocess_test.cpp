@@ -107,14 +107,14 @@ void expect_vectors_near(const Vec4Image& gpu, const Vec4Image& ref, double tol,
 // Runs the whole preprocessing chain on the GPU and downloads its results (and timings).
 Result<PreprocessedFrame> run_on_gpu(const std::shared_ptr<gpu::Context>& context,
                                      const PreprocessConfig& config, const Intrinsics& k,
-                                     const DepthImage& raw) {
+                                     const DepthImage& raw, int first_map_level = 0) {
   auto kernels = gpu::Preprocessor::create(context, config, k);
   if (!kernels) return kernels.error();
   auto seq = gpu::CommandSequence::create(context, kernels->dispatch_count());
   if (!seq) return seq.error();
   IMUFUSION_RETURN_IF_ERROR(kernels->upload(raw));
   IMUFUSION_RETURN_IF_ERROR(seq->begin());
-  kernels->record(*seq);
+  kernels->record(*seq, first_map_level);
   auto timings = seq->submit_and_wait();
   if (!timings) return timings.error();
   auto frame = kernels->download();
@@ -176,6 +176,39 @@ TEST_F(GpuTest, WholeChainMatchesReferenceChain) {
     expect_vectors_near(gpu->vertices[l], ref.vertices[l], 1e-4, "chain vertices");
     expect_vectors_near(gpu->normals[l], ref.normals[l], 1e-3, "chain normals", 0.005);
   }
+}
+
+// Tracking at a coarser level filters there: the GPU chain matches the reference's, and the
+// filter runs once, at that level, with the radius halved per level.
+TEST_F(GpuTest, ChainFilteredAtTheFirstMapLevelMatchesReference) {
+  const Intrinsics k = test_intrinsics(161, 117);
+  const PreprocessConfig config;
+  const DepthImage raw = test_depth(k, 12);
+  for (int first = 1; first <= 2; ++first) {
+    auto gpu = run_on_gpu(context_, config, k, raw, first);
+    ASSERT_TRUE(gpu.ok()) << gpu.error().describe();
+    const PreprocessedFrame ref = reference::preprocess(raw, k, config, first);
+    for (int level = 0; level < config.levels; ++level) {
+      const auto l = static_cast<std::size_t>(level);
+      expect_depth_near(gpu->depth[l], ref.depth[l], 1e-4, "depth");
+      if (level < first) continue;
+      expect_vectors_near(gpu->vertices[l], ref.vertices[l], 1e-4, "vertices");
+      expect_vectors_near(gpu->normals[l], ref.normals[l], 1e-3, "normals", 0.005);
+    }
+    int filters = 0;
+    for (const KernelTiming& t : gpu->timings) {
+      if (t.kernel.rfind("bilateral", 0) != 0) continue;
+      ++filters;
+      EXPECT_EQ(t.kernel, "bilateral[" + std::to_string(first) + "]");
+    }
+    EXPECT_EQ(filters, 1);
+    // Above the filter's level the depth is the unfiltered pyramid: level 0 is the raw metres.
+    expect_depth_near(gpu->depth[0], ref.raw_depth, 1e-6, "level 0 unfiltered");
+  }
+  EXPECT_EQ(bilateral_radius_at_level(config, 0), 3);
+  EXPECT_EQ(bilateral_radius_at_level(config, 1), 1);
+  EXPECT_EQ(bilateral_radius_at_level(config, 2), 1);
+  EXPECT_FLOAT_EQ(bilateral_sigma_space_at_level(config, 1), config.bilateral_sigma_space / 2);
 }
 
 TEST_F(GpuTest, InvalidPixelsStayInvalidAndNormalsFaceTheCamera) {

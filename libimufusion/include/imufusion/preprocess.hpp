@@ -1,6 +1,8 @@
 #pragma once
 // Depth preprocessing on the GPU: raw 16-bit depth -> metres -> bilateral filter -> a pyramid of
-// half-resolution levels -> vertex and normal maps per level (camera frame, metres).
+// half-resolution levels -> vertex and normal maps per level (camera frame, metres). The filter
+// runs at the finest level whose maps are made (level 0 here; the scanner's tracking level):
+// coarser levels are reduced from the filtered one, finer ones hold the unfiltered pyramid.
 
 #include <memory>
 #include <vector>
@@ -15,8 +17,8 @@ struct PreprocessConfig {
   int levels = 3;          // pyramid levels, level 0 at full resolution
   float min_depth = 0.3f;  // metres; measurements outside [min, max] are dropped
   float max_depth = 5.0f;
-  int bilateral_radius = 3;             // pixels (7x7 window)
-  float bilateral_sigma_space = 4.5f;   // pixels
+  int bilateral_radius = 3;             // full-size pixels (7x7 window); halved per level
+  float bilateral_sigma_space = 4.5f;   // full-size pixels; halved per level
   float bilateral_sigma_depth = 0.03f;  // metres
   /// Depth jumps above this fraction of the depth count as discontinuities: the pyramid does not
   /// average across them and normals are not taken across them.
@@ -27,10 +29,16 @@ struct PreprocessConfig {
   Status validate() const;
 };
 
+/// The bilateral filter's radius at pyramid `level`: bilateral_radius halved per level, rounded
+/// down, at least 1 (0 stays 0). Level 1 of the 7x7 default: 3x3.
+int bilateral_radius_at_level(const PreprocessConfig& config, int level);
+/// Its spatial sigma at `level` (pixels of that level): bilateral_sigma_space halved per level.
+float bilateral_sigma_space_at_level(const PreprocessConfig& config, int level);
+
 /// One preprocessed frame, downloaded to the host.
 struct PreprocessedFrame {
   FloatImage raw_depth;               // level 0, metres, before filtering (for fusion)
-  std::vector<FloatImage> depth;      // per level: filtered (level 0) and downsampled, metres
+  std::vector<FloatImage> depth;      // per level, metres: filtered at the first map level
   std::vector<Vec4Image> vertices;    // per level: camera-frame points, w = 1 where valid
   std::vector<Vec4Image> normals;     // per level: unit normals facing the camera, w = 1 valid
   std::vector<KernelTiming> timings;  // one per kernel dispatch

@@ -1,5 +1,7 @@
 #include "gpu/preprocessor.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <string>
 #include <utility>
@@ -22,6 +24,15 @@ Status PreprocessConfig::validate() const {
   if (!(max_jump_fraction > 0)) return bad("max_jump_fraction must be positive");
   if (workgroup_x < 1 || workgroup_y < 1) return bad("workgroup size must be positive");
   return {};
+}
+
+int bilateral_radius_at_level(const PreprocessConfig& config, int level) {
+  if (config.bilateral_radius == 0) return 0;
+  return std::max(1, config.bilateral_radius >> level);
+}
+
+float bilateral_sigma_space_at_level(const PreprocessConfig& config, int level) {
+  return std::ldexp(config.bilateral_sigma_space, -level);
 }
 
 namespace gpu {
@@ -97,6 +108,11 @@ Result<Preprocessor> Preprocessor::create(std::shared_ptr<Context> context,
     IMUFUSION_RETURN_IF_ERROR(alloc(pixels * sizeof(float), p.depth_.back()));
     IMUFUSION_RETURN_IF_ERROR(alloc(pixels * 4 * sizeof(float), p.vertices_.back()));
     IMUFUSION_RETURN_IF_ERROR(alloc(pixels * 4 * sizeof(float), p.normals_.back()));
+  }
+  if (config.levels > 1) {
+    const Intrinsics k1 = intrinsics.at_level(1);
+    IMUFUSION_RETURN_IF_ERROR(
+        alloc(static_cast<std::size_t>(k1.width) * k1.height * sizeof(float), p.filter_input_));
   }
   return p;
 }
@@ -202,7 +218,8 @@ std::uint32_t Preprocessor::maps_dispatch_count() const {
 }
 
 std::uint32_t Preprocessor::dispatch_count() const {
-  return 2 + static_cast<std::uint32_t>(config_.levels - 1) +
+  // depth_to_metres, the level-0 copy, the bilateral filter, the pyramid and the maps.
+  return 3 + static_cast<std::uint32_t>(config_.levels - 1) +
          2 * static_cast<std::uint32_t>(config_.levels);
 }
 
@@ -214,13 +231,28 @@ void Preprocessor::record(CommandSequence& seq, int first_map_level) const {
                                            config_.min_depth, config_.max_depth};
   if (!metres_input_)
     seq.dispatch(to_metres_, {&raw_, &raw_metres_}, metres, w0, h0, "depth_to_metres");
-  const float ss = config_.bilateral_sigma_space;
+  // Levels finer than the filter's: the unfiltered pyramid (level 0 a copy of the metres); the
+  // filter's level is reduced into the scratch buffer and filtered from there.
+  const int filter_level = std::clamp(first_map_level, 0, config_.levels - 1);
+  if (filter_level > 0) seq.copy(raw_metres_, depth_[0], depth_[0].size(), "depth_copy[0]");
+  for (int level = 1; level <= filter_level; ++level) {
+    const auto l = static_cast<std::size_t>(level);
+    const layout::PyramidDownParams down = pyramid_down(level);
+    const Buffer* src = level == 1 ? &raw_metres_ : &depth_[l - 1];
+    const Buffer* dst = level == filter_level ? &filter_input_ : &depth_[l];
+    seq.dispatch(pyramid_down_, {src, dst}, down, down.dst_width, down.dst_height,
+                 level_label("pyramid_down", level));
+  }
+  const auto f = static_cast<std::size_t>(filter_level);
+  const auto wf = static_cast<std::uint32_t>(levels_[f].width);
+  const auto hf = static_cast<std::uint32_t>(levels_[f].height);
+  const float ss = bilateral_sigma_space_at_level(config_, filter_level);
   const float sd = config_.bilateral_sigma_depth;
-  const layout::BilateralParams bilateral{w0, h0, config_.bilateral_radius, 1.0f / (2 * ss * ss),
-                                          1.0f / (2 * sd * sd)};
-  seq.dispatch(bilateral_, {&raw_metres_, &depth_[0]}, bilateral, w0, h0,
-               level_label("bilateral", 0));
-  for (int level = 1; level < config_.levels; ++level) {
+  const layout::BilateralParams bilateral{wf, hf, bilateral_radius_at_level(config_, filter_level),
+                                          1.0f / (2 * ss * ss), 1.0f / (2 * sd * sd)};
+  seq.dispatch(bilateral_, {filter_level == 0 ? &raw_metres_ : &filter_input_, &depth_[f]},
+               bilateral, wf, hf, level_label("bilateral", filter_level));
+  for (int level = filter_level + 1; level < config_.levels; ++level) {
     const layout::PyramidDownParams down = pyramid_down(level);
     seq.dispatch(
         pyramid_down_,

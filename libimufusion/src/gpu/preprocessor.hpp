@@ -36,7 +36,8 @@ class Preprocessor {
   /// Number of dispatches record_maps_from() adds.
   std::uint32_t maps_dispatch_count() const;
   /// Records every preprocessing dispatch into `seq` (between begin and submit); vertex and
-  /// normal maps from `first_map_level` on (the levels ICP uses), depth at every level.
+  /// normal maps from `first_map_level` on (the levels ICP uses), depth at every level, the
+  /// bilateral filter at `first_map_level` (PreprocessConfig's radius and sigma scaled to it).
   void record(CommandSequence& seq, int first_map_level = 0) const;
   /// Number of dispatches record() adds.
   std::uint32_t dispatch_count() const;
@@ -66,6 +67,7 @@ class Preprocessor {
   Buffer raw_;         // uint16 pairs
   Buffer raw_metres_;  // level 0, unfiltered
   std::vector<Buffer> depth_, vertices_, normals_;
+  Buffer filter_input_;  // the unfiltered depth of a filter level below 0 (level 1's size)
   double depth_scale_ = 0;
   bool metres_input_ = false;          // the last upload was float metres
   std::vector<float> metres_scratch_;  // float metres when raw_metres_ is not host-visible

@@ -108,12 +108,12 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthView& depth,
     icp.seed_sigma_rotation = prediction.rotation_sigma * prediction_calibration.scale();
     icp.seed_sigma_translation = config.inertial.max_speed * frame_interval;
   }
+  // Pixels sharing one depth error at ICP's level 0: the bilateral window, which preprocessing
+  // applies at the tracking level.
   if (icp.seed_sigma_rotation > 0) {
-    const int window = 2 * config.preprocess.bilateral_radius + 1;
+    const int window = 2 * bilateral_radius_at_level(config.preprocess, tracking_level) + 1;
     icp.correlated_pixels = std::max(1, window * window);
   }
-  // Pixels sharing one depth error at ICP's level 0: a quarter per pyramid level coarser.
-  icp.correlated_pixels = std::max(1.0, std::ldexp(icp.correlated_pixels, -2 * tracking_level));
   // With the gyro's rotation but no predicted translation (the first tracked frames), the seed
   // is still within the finest level's reach while tracking (bench/README.md: room and fast
   // scans, 2 iterations per frame).

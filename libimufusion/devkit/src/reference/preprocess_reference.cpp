@@ -123,17 +123,24 @@ Vec4Image normal_map(const Vec4Image& vertices, double max_jump_fraction) {
 }
 
 PreprocessedFrame preprocess(const DepthImage& raw, const Intrinsics& intrinsics,
-                             const PreprocessConfig& config) {
+                             const PreprocessConfig& config, int first_map_level) {
   PreprocessedFrame frame;
   frame.raw_depth = depth_to_metres(raw, config.min_depth, config.max_depth);
-  frame.depth.push_back(bilateral(frame.raw_depth, config.bilateral_radius,
-                                  config.bilateral_sigma_space, config.bilateral_sigma_depth));
-  for (int level = 1; level < config.levels; ++level)
+  // Unfiltered down to the filter's level, filtered there, reduced from it below.
+  frame.depth.push_back(frame.raw_depth);
+  for (int level = 1; level <= first_map_level; ++level)
     frame.depth.push_back(pyramid_down(frame.depth.back(), config.max_jump_fraction));
-  for (int level = 0; level < config.levels; ++level) {
-    const auto& d = frame.depth[static_cast<std::size_t>(level)];
-    frame.vertices.push_back(vertex_map(d, intrinsics.at_level(level)));
-    frame.normals.push_back(normal_map(frame.vertices.back(), config.max_jump_fraction));
+  frame.depth.back() = bilateral(
+      frame.depth.back(), bilateral_radius_at_level(config, first_map_level),
+      bilateral_sigma_space_at_level(config, first_map_level), config.bilateral_sigma_depth);
+  for (int level = first_map_level + 1; level < config.levels; ++level)
+    frame.depth.push_back(pyramid_down(frame.depth.back(), config.max_jump_fraction));
+  frame.vertices.resize(static_cast<std::size_t>(config.levels));
+  frame.normals.resize(static_cast<std::size_t>(config.levels));
+  for (int level = first_map_level; level < config.levels; ++level) {
+    const auto l = static_cast<std::size_t>(level);
+    frame.vertices[l] = vertex_map(frame.depth[l], intrinsics.at_level(level));
+    frame.normals[l] = normal_map(frame.vertices[l], config.max_jump_fraction);
   }
   return frame;
 }

@@ -13,8 +13,10 @@ FloatImage pyramid_down(const FloatImage& depth, double max_jump_fraction);
 Vec4Image vertex_map(const FloatImage& depth, const Intrinsics& level_intrinsics);
 Vec4Image normal_map(const Vec4Image& vertices, double max_jump_fraction);
 
-/// The whole chain, as DepthPreprocessor::process computes it (timings left empty).
+/// The whole chain, as gpu::Preprocessor::record computes it with `first_map_level` (0: as
+/// DepthPreprocessor::process does); maps from that level on, the levels before it empty (timings
+/// left empty).
 PreprocessedFrame preprocess(const DepthImage& raw, const Intrinsics& intrinsics,
-                             const PreprocessConfig& config);
+                             const PreprocessConfig& config, int first_map_level = 0);
 
 }  // namespace imufusion::reference
