@@ -11,7 +11,7 @@ void apply_phone_tof(ReconstructorConfig& config) {
   config.preprocess.max_depth = 4.0f;
   // The sensor's noise, 1 % of z, as sigma(z) = a + b (z - z0)^2: within 15 % over 0.8-4 m.
   config.icp.depth_noise = DepthNoiseModel{0.0033, 0.00165, -1.0};
-  config.volume.voxel_size = 0.015f;
+  config.volume.voxel_size = 0.02f;  // m: 2 cm scored best of 1, 1.5, 2 and 2.5 cm
 }
 
 }  // namespace
