@@ -231,33 +231,34 @@ void Preprocessor::record(CommandSequence& seq, int first_map_level) const {
                                            config_.min_depth, config_.max_depth};
   if (!metres_input_)
     seq.dispatch(to_metres_, {&raw_, &raw_metres_}, metres, w0, h0, "depth_to_metres");
-  // Levels finer than the filter's: the unfiltered pyramid (level 0 a copy of the metres); the
-  // filter's level is reduced into the scratch buffer and filtered from there.
+  // The depth pyramid, filtered at first_map_level: the levels finer than it hold the unfiltered
+  // pyramid (level 0 a copy of the metres), its own reduction goes to the scratch buffer and is
+  // filtered from there, the coarser levels are reduced from the filtered one.
   const int filter_level = std::clamp(first_map_level, 0, config_.levels - 1);
-  if (filter_level > 0) seq.copy(raw_metres_, depth_[0], depth_[0].size(), "depth_copy[0]");
-  for (int level = 1; level <= filter_level; ++level) {
+  const auto record_filter = [&] {
+    const auto f = static_cast<std::size_t>(filter_level);
+    const auto wf = static_cast<std::uint32_t>(levels_[f].width);
+    const auto hf = static_cast<std::uint32_t>(levels_[f].height);
+    const float ss = bilateral_sigma_space_at_level(config_, filter_level);
+    const float sd = config_.bilateral_sigma_depth;
+    const layout::BilateralParams bilateral{wf, hf,
+                                            bilateral_radius_at_level(config_, filter_level),
+                                            1.0f / (2 * ss * ss), 1.0f / (2 * sd * sd)};
+    seq.dispatch(bilateral_, {filter_level == 0 ? &raw_metres_ : &filter_input_, &depth_[f]},
+                 bilateral, wf, hf, level_label("bilateral", filter_level));
+  };
+  if (filter_level == 0)
+    record_filter();
+  else
+    seq.copy(raw_metres_, depth_[0], depth_[0].size(), "depth_copy[0]");
+  for (int level = 1; level < config_.levels; ++level) {
     const auto l = static_cast<std::size_t>(level);
     const layout::PyramidDownParams down = pyramid_down(level);
-    const Buffer* src = level == 1 ? &raw_metres_ : &depth_[l - 1];
+    const Buffer* src = level == 1 && filter_level > 0 ? &raw_metres_ : &depth_[l - 1];
     const Buffer* dst = level == filter_level ? &filter_input_ : &depth_[l];
     seq.dispatch(pyramid_down_, {src, dst}, down, down.dst_width, down.dst_height,
                  level_label("pyramid_down", level));
-  }
-  const auto f = static_cast<std::size_t>(filter_level);
-  const auto wf = static_cast<std::uint32_t>(levels_[f].width);
-  const auto hf = static_cast<std::uint32_t>(levels_[f].height);
-  const float ss = bilateral_sigma_space_at_level(config_, filter_level);
-  const float sd = config_.bilateral_sigma_depth;
-  const layout::BilateralParams bilateral{wf, hf, bilateral_radius_at_level(config_, filter_level),
-                                          1.0f / (2 * ss * ss), 1.0f / (2 * sd * sd)};
-  seq.dispatch(bilateral_, {filter_level == 0 ? &raw_metres_ : &filter_input_, &depth_[f]},
-               bilateral, wf, hf, level_label("bilateral", filter_level));
-  for (int level = filter_level + 1; level < config_.levels; ++level) {
-    const layout::PyramidDownParams down = pyramid_down(level);
-    seq.dispatch(
-        pyramid_down_,
-        {&depth_[static_cast<std::size_t>(level - 1)], &depth_[static_cast<std::size_t>(level)]},
-        down, down.dst_width, down.dst_height, level_label("pyramid_down", level));
+    if (level == filter_level) record_filter();
   }
   for (int level = first_map_level; level < config_.levels; ++level) {
     const auto l = static_cast<std::size_t>(level);
