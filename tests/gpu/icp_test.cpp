@@ -78,7 +78,13 @@ void expect_equations_match(const NormalEquations& gpu, const NormalEquations& w
   EXPECT_TRUE(near(gpu.weight_sum, want.weight_sum));
 }
 
-TEST_F(GpuTest, AssociationAndReductionMatchTheReference) {
+// GetParam(): the reduction adds across subgroups (where the device can; skipped elsewhere) or
+// through the shared-memory tree.
+class IcpReductionTest : public GpuTest, public ::testing::WithParamInterface<bool> {};
+
+TEST_P(IcpReductionTest, AssociationAndReductionMatchTheReference) {
+  if (GetParam() && !context_->info().subgroup_arithmetic)
+    GTEST_SKIP() << "the device has no subgroup arithmetic";
   const Frames f = room_frames(97, 61, motion(1.5, {0.2, 1, 0.1}, {0.02, 0.01, -0.03}), true);
   const PreprocessConfig config;
   auto ref = gpu::Preprocessor::create(context_, config, f.k);
@@ -98,7 +104,7 @@ TEST_F(GpuTest, AssociationAndReductionMatchTheReference) {
 
   const DepthNoiseModel noise;
   const NormalGate gate;  // the default widens the normal test on the far pixels
-  auto kernels = gpu::IcpKernels::create(context_, 97 * 61, 16, 16, noise, gate);
+  auto kernels = gpu::IcpKernels::create(context_, 97 * 61, 16, 16, noise, gate, GetParam());
   ASSERT_TRUE(kernels.ok()) << kernels.error().describe();
   auto icp_seq = gpu::CommandSequence::create(context_, gpu::IcpKernels::kDispatches);
   ASSERT_TRUE(icp_seq.ok());
@@ -155,6 +161,11 @@ TEST_F(GpuTest, AssociationAndReductionMatchTheReference) {
     expect_equations_match(*gpu_eq, want);
   }
 }
+
+INSTANTIATE_TEST_SUITE_P(Variants, IcpReductionTest, ::testing::Values(true, false),
+                         [](const ::testing::TestParamInfo<bool>& param) {
+                           return param.param ? "Subgroups" : "SharedMemoryTree";
+                         });
 
 TEST_F(GpuTest, ReductionIsDeterministic) {
   const Frames f = room_frames(97, 61, motion(1.0, {0, 1, 0}, {0.01, 0, 0}), true);

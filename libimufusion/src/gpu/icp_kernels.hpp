@@ -26,9 +26,11 @@ class IcpKernels {
   /// Buffers sized for current frames of up to `max_pixels` pixels; `noise` weighs the pixels
   /// in the inlier fraction (NormalEquations::valid_information) and, with `gate`, widens the
   /// normal test where the depth is noisy.
+  /// The reduction adds across subgroups where the device can (DeviceInfo::subgroup_arithmetic)
+  /// and `subgroups` allows it, else through a shared-memory tree.
   static Result<IcpKernels> create(std::shared_ptr<Context> context, std::size_t max_pixels,
                                    int workgroup_x, int workgroup_y, const DepthNoiseModel& noise,
-                                   const NormalGate& gate = {});
+                                   const NormalGate& gate = {}, bool subgroups = true);
 
   /// Records association of `current` against `reference` (seen through `ref_intrinsics`) at
   /// the pose T_ref_cur, then the partial reduction.

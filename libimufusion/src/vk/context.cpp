@@ -114,6 +114,9 @@ int compute_queue_family(VkPhysicalDevice physical) {
 DeviceInfo describe(VkPhysicalDevice physical, int index) {
   VkPhysicalDeviceDriverProperties driver{};
   driver.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES;
+  VkPhysicalDeviceSubgroupProperties subgroup{};
+  subgroup.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES;
+  driver.pNext = &subgroup;
   VkPhysicalDeviceProperties2 props{};
   props.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
   props.pNext = &driver;
@@ -127,6 +130,11 @@ DeviceInfo describe(VkPhysicalDevice physical, int index) {
   info.type = to_device_type(props.properties.deviceType);
   info.driver = std::string(driver.driverName) + " " + driver.driverInfo;
   info.api_version = props.properties.apiVersion;
+  info.subgroup_size = subgroup.subgroupSize;
+  constexpr VkSubgroupFeatureFlags kArithmetic =
+      VK_SUBGROUP_FEATURE_BASIC_BIT | VK_SUBGROUP_FEATURE_ARITHMETIC_BIT;
+  info.subgroup_arithmetic = (subgroup.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) != 0 &&
+                             (subgroup.supportedOperations & kArithmetic) == kArithmetic;
   for (std::uint32_t h = 0; h < memory.memoryHeapCount; ++h) {
     if (memory.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT)
       info.device_local_bytes =
