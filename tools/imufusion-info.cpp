@@ -81,6 +81,12 @@ void print_summary(const SequenceCheck& check) {
     std::cout << "intrinsics: fx " << format("%g", k.fx) << " fy " << format("%g", k.fy) << " cx "
               << format("%g", k.cx) << " cy " << format("%g", k.cy) << " ("
               << (info.intrinsics_from_file ? "calibration.txt" : "caller") << ")\n";
+    if (k.distorted()) {
+      const auto& d = k.distortion;
+      std::cout << "lens distortion: k1 " << format("%g", d[0]) << " k2 " << format("%g", d[1])
+                << " p1 " << format("%g", d[2]) << " p2 " << format("%g", d[3]) << " k3 "
+                << format("%g", d[4]) << " (frames resampled to the pinhole)\n";
+    }
   } else {
     std::cout << "intrinsics: missing: pass intrinsics (no calibration.txt)\n";
   }

@@ -108,7 +108,9 @@ ReconstructorConfig make_config(const ScanOptions& opt, const SequenceReader* re
                                 const FrameSource* source, const Intrinsics& k, bool sequence_imu) {
   const bool with_imu =
       !opt.no_imu && (opt.imu_udp || (reader != nullptr && reader->has_imu() && sequence_imu));
-  ReconstructorConfig config = preset_config(opt.sensor, k, with_imu);
+  Intrinsics lens = k;
+  if (opt.distortion) lens.distortion = *opt.distortion;
+  ReconstructorConfig config = preset_config(opt.sensor, lens, with_imu);
   if (opt.voxel_size) config.volume.voxel_size = *opt.voxel_size;
   config.volume.block_capacity = opt.block_capacity;
   config.volume.initial_blocks = opt.initial_blocks;

@@ -2,12 +2,14 @@
 // imufusion-scan's command line: its options with their defaults, the usage text, and the
 // parser.
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
 #include <iostream>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "cli_numbers.hpp"
 #include "imufusion/imu_stream.hpp"
@@ -31,7 +33,8 @@ struct ScanOptions {
   std::optional<TranslationModel> translation;
   int recovery_frames = TrackingConfig{}.recovery_frames;
   SensorPreset sensor = SensorPreset::kKinect;
-  std::optional<float> voxel_size;  // the preset's when not given
+  std::optional<float> voxel_size;                  // the preset's when not given
+  std::optional<std::array<double, 5>> distortion;  // the lens's, over calibration.txt's
   std::uint32_t block_capacity = VolumeConfig{}.block_capacity;
   std::uint32_t initial_blocks = VolumeConfig{}.initial_blocks;
   int tracking_level = ReconstructorConfig{}.tracking_level;
@@ -64,6 +67,7 @@ inline int scan_usage(std::ostream& out, int code) {
          "DIR]\n"
          "                      [--frame-step N] [--block-capacity N] [--initial-blocks N]\n"
          "                      [--tracking-level N] [--save-state FILE] [--resume FILE]\n"
+         "                      [--distortion K1,K2,P1,P2,K3]\n"
          "Scans SEQUENCE, a camera (openni2:// or openni2://URI) or a recording (FILE.oni) "
          "(default:\n"
          "the embedded demo room, synthesized into --demo-dir, default ./demo) and writes DIR "
@@ -79,6 +83,9 @@ inline int scan_usage(std::ostream& out, int code) {
          "  --poses FILE             fuse with known camera-to-world poses (TUM format), no "
          "tracking\n"
          "  --frames N               scan at most N frames (counted after --frame-step)\n"
+         "  --distortion K1,K2,P1,P2,K3  the depth camera's lens distortion (OpenCV's order;\n"
+         "                           default: calibration.txt's, else none); frames are\n"
+         "                           resampled to the pinhole on arrival\n"
          "  --frame-step N           scan every Nth frame (0, N, 2N, ...: N times faster motion);\n"
          "                           the IMU samples of skipped frames go with the next kept "
          "frame,\n"
@@ -189,6 +196,22 @@ inline int parse_scan_value(const std::string& a, const std::string& v, ScanOpti
   } else if (a == "--initial-blocks") {
     if (!integer || *integer < 1 || *integer > (1 << 21)) return bad("a count 1..2097152");
     opt.initial_blocks = static_cast<std::uint32_t>(*integer);
+  } else if (a == "--distortion") {
+    std::vector<std::string> fields(1);
+    for (char c : v) {
+      if (c == ',')
+        fields.emplace_back();
+      else
+        fields.back().push_back(c);
+    }
+    std::array<double, 5> d{};
+    if (fields.size() != d.size()) return bad("five numbers K1,K2,P1,P2,K3");
+    for (std::size_t i = 0; i < d.size(); ++i) {
+      const auto c = parse_number(fields[i]);
+      if (!c) return bad("five numbers K1,K2,P1,P2,K3");
+      d[i] = *c;
+    }
+    opt.distortion = d;
   } else if (a == "--voxel-size") {
     const auto m = parse_number(v);
     if (!m || *m < 0.001 || *m > 0.5) return bad("metres in [0.001, 0.5]");

@@ -95,6 +95,7 @@ inline nlohmann::json scan_settings_json(const ScanOptions& opt, const Reconstru
   const Intrinsics tracked = c.intrinsics.at_level(rec.tracking_level());
   s["tracking_level"] = rec.tracking_level();
   s["tracking_size"] = std::to_string(tracked.width) + "x" + std::to_string(tracked.height);
+  s["lens_distortion"] = c.intrinsics.distortion;  // k1 k2 p1 p2 k3; all 0: a pinhole
   s["recovery_icp_iterations"] = c.recovery.icp_iterations;
   s["recovery_frames"] = c.tracking.recovery_frames;
   s["translation_model"] = to_string(c.inertial.translation);

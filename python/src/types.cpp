@@ -1,5 +1,7 @@
 #include "imufusion/types.hpp"
 
+#include <pybind11/stl.h>
+
 #include "bindings.hpp"
 #include "convert.hpp"
 #include "imufusion/device.hpp"
@@ -59,6 +61,8 @@ void bind_intrinsics(py::module_& m) {
       .def_readwrite("cy", &Intrinsics::cy)
       .def_readwrite("width", &Intrinsics::width)
       .def_readwrite("height", &Intrinsics::height)
+      .def_readwrite("distortion", &Intrinsics::distortion,
+                     "Lens distortion k1, k2, p1, p2, k3 (OpenCV's order); all 0: a pinhole")
       .def("at_level", &Intrinsics::at_level, py::arg("level"),
            "The intrinsics of the image downsampled by 2^level")
       .def("__repr__", [](const Intrinsics& k) {

@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <random>
 
+#include "core/undistortion.hpp"
 #include "gpu/preprocessor.hpp"
 #include "gpu_test_env.hpp"
 #include "reference/map_pyramid.hpp"
@@ -316,6 +317,79 @@ TEST_F(GpuTest, WrongImageSizeIsAnError) {
   ASSERT_FALSE(status.ok());
   EXPECT_EQ(status.error().code, ErrorCode::kInvalidArgument);
   EXPECT_NE(status.error().message.find("96x61"), std::string::npos) << status.error().message;
+}
+
+// A tilted plane seen through a lens with distortion: the frame as the sensor gives it (each
+// pixel the plane's depth along the ray the lens bends into it) comes out of preprocessing as the
+// pinhole image of the plane, in uint16 and in float metres alike; read as a pinhole it does not.
+TEST(DepthPreprocessorFacade, DistortedFramesBecomeThePinholeImage) {
+  std::string reason;
+  if (!test::gpu_context(&reason)) GTEST_SKIP() << reason;
+  Intrinsics k{150.0, 151.0, 80.5, 58.5, 160, 120, {-0.25, 0.08, 0.002, -0.001, 0.0}};
+  // Plane n . X = 1.2 m: its z-depth on the ray through normalized (x, y).
+  const Eigen::Vector3d n = Eigen::Vector3d(0.25, -0.15, 1.0).normalized();
+  const auto plane_z = [&](double x, double y) { return 1.2 / (n.x() * x + n.y() * y + n.z()); };
+  DepthImage distorted;
+  distorted.width = k.width;
+  distorted.height = k.height;
+  distorted.depth_scale = 5000.0;
+  std::vector<float> distorted_metres;
+  for (int v = 0; v < k.height; ++v) {
+    for (int u = 0; u < k.width; ++u) {
+      // The undistorted ray the lens puts at (u, v), by fixed-point iteration.
+      const double xd = (u - k.cx) / k.fx, yd = (v - k.cy) / k.fy;
+      double x = xd, y = yd;
+      for (int i = 0; i < 50; ++i) {
+        double px = 0, py = 0;
+        distort_normalized(k, x, y, &px, &py);
+        x += xd - px;
+        y += yd - py;
+      }
+      const double z = plane_z(x, y);
+      distorted.data.push_back(static_cast<std::uint16_t>(std::lround(z * 5000.0)));
+      distorted_metres.push_back(static_cast<float>(z));
+    }
+  }
+  const auto pinhole_errors = [&](const FloatImage& depth, std::size_t* invalid) {
+    std::size_t large = 0;
+    *invalid = 0;
+    for (int v = 0; v < k.height; ++v) {
+      for (int u = 0; u < k.width; ++u) {
+        const float d = depth.data[static_cast<std::size_t>(v * k.width + u)];
+        if (d <= 0) {
+          ++*invalid;
+          continue;
+        }
+        // Half a pixel's slope of this plane, plus the 0.2 mm depth step.
+        const double z = plane_z((u - k.cx) / k.fx, (v - k.cy) / k.fy);
+        if (std::abs(d - z) > 0.003 * z + 0.0002) ++large;
+      }
+    }
+    return large;
+  };
+  auto sources = undistortion_sources(k);
+  ASSERT_TRUE(sources.ok());
+  std::size_t outside = 0;
+  for (std::int32_t s : *sources) outside += s < 0 ? 1 : 0;
+
+  auto pre = DepthPreprocessor::create(PreprocessConfig{}, k);
+  ASSERT_TRUE(pre.ok()) << pre.error().describe();
+  for (const DepthView& view :
+       {DepthView(distorted), DepthView::metres(distorted_metres.data(), k.width, k.height)}) {
+    auto frame = pre->process(view);
+    ASSERT_TRUE(frame.ok()) << frame.error().describe();
+    std::size_t invalid = 0;
+    EXPECT_EQ(pinhole_errors(frame->raw_depth, &invalid), 0u);
+    EXPECT_EQ(invalid, outside);
+  }
+  Intrinsics pinhole = k;
+  pinhole.distortion = {0, 0, 0, 0, 0};
+  auto plain = DepthPreprocessor::create(PreprocessConfig{}, pinhole);
+  ASSERT_TRUE(plain.ok());
+  auto frame = plain->process(distorted);
+  ASSERT_TRUE(frame.ok());
+  std::size_t invalid = 0;
+  EXPECT_GT(pinhole_errors(frame->raw_depth, &invalid), std::size_t(k.width * k.height) / 10);
 }
 
 TEST(DepthPreprocessorFacade, ProcessesWithValidationAndReportsTimings) {

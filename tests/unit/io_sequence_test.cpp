@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 
@@ -349,6 +350,27 @@ TEST_F(SequenceFixture, NonPositiveIntrinsics) {
   write_text(dir / "calibration.txt", "-5.5 5 4.1 3.2\n");
   expect_names(open_error(), "calibration.txt", 1);
   write_text(dir / "calibration.txt", "5.5 5 4.1\n");
+  expect_names(open_error(), "calibration.txt", 1);
+}
+
+TEST_F(SequenceFixture, CalibrationWithLensDistortion) {
+  write_text(dir / "calibration.txt", "5.5 5.6 4.1 3.2 0.26 -0.95 -0.005 0.0026 1.16\n");
+  auto reader = SequenceReader::open(dir.path());
+  ASSERT_TRUE(reader.ok()) << reader.error().describe();
+  ASSERT_TRUE(reader->intrinsics().has_value());
+  EXPECT_EQ(reader->intrinsics()->fx, 5.5);
+  const std::array<double, 5> want = {0.26, -0.95, -0.005, 0.0026, 1.16};
+  EXPECT_EQ(reader->intrinsics()->distortion, want);
+  // Four numbers: a pinhole; any count but 4 and 9 is refused, naming the fields expected.
+  write_text(dir / "calibration.txt", "5.5 5.6 4.1 3.2\n");
+  auto pinhole = SequenceReader::open(dir.path());
+  ASSERT_TRUE(pinhole.ok());
+  EXPECT_FALSE(pinhole->intrinsics()->distorted());
+  write_text(dir / "calibration.txt", "5.5 5.6 4.1 3.2 0.26\n");
+  const Error error = open_error();
+  expect_names(error, "calibration.txt", 1);
+  EXPECT_NE(error.message.find("k3"), std::string::npos) << error.message;
+  write_text(dir / "calibration.txt", "5.5 5.6 4.1 3.2 0.26 -0.95 nan 0.0026 1.16\n");
   expect_names(open_error(), "calibration.txt", 1);
 }
 

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -91,6 +92,24 @@ TEST(SequenceWriter, RoundTripThroughReader) {
   std::size_t after_last = 0;
   for (const ImuSample& sample : imu) after_last += sample.timestamp > 10.1 ? 1 : 0;
   EXPECT_EQ(imu_seen + after_last, imu.size());
+}
+
+TEST(SequenceWriter, LensDistortionRoundTrips) {
+  TempDir dir;
+  auto writer = SequenceWriter::create(dir / "seq");
+  ASSERT_TRUE(writer.ok()) << writer.error().describe();
+  const Intrinsics k{525.0, 524.5, 48.25, 30.75, 0, 0, {0.2624, -0.9531, -0.0054, 0.0026, 1.1633}};
+  ASSERT_TRUE(writer->set_intrinsics(k).ok());
+  ASSERT_TRUE(writer->add_depth(0.0, testing::make_depth(97, 61, 100, 1000.0)).ok());
+  ASSERT_TRUE(writer->finish().ok());
+  auto reader = SequenceReader::open(dir / "seq");
+  ASSERT_TRUE(reader.ok()) << reader.error().describe();
+  EXPECT_EQ(reader->intrinsics()->distortion, k.distortion);
+  Intrinsics bad = k;
+  bad.distortion[2] = std::numeric_limits<double>::quiet_NaN();
+  auto refused = SequenceWriter::create(dir / "other");
+  ASSERT_TRUE(refused.ok());
+  EXPECT_FALSE(refused->set_intrinsics(bad).ok());
 }
 
 TEST(SequenceWriter, RefusesNonEmptyDirectoryUnlessAllowed) {

@@ -4,6 +4,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -17,6 +18,16 @@ namespace imufusion {
 struct Intrinsics {
   double fx = 0, fy = 0, cx = 0, cy = 0;
   int width = 0, height = 0;
+  /// Lens distortion of the frames as given, OpenCV's order k1, k2, p1, p2, k3 (Brown-Conrady on
+  /// normalized coordinates); all 0 (the default): an ideal pinhole. Frames with distortion are
+  /// resampled to the pinhole (fx, fy, cx, cy) on arrival, and everything after sees that image.
+  std::array<double, 5> distortion = {0, 0, 0, 0, 0};
+
+  bool distorted() const {
+    for (double c : distortion)
+      if (c != 0) return true;
+    return false;
+  }
 
   /// The intrinsics of an image downsampled by 2^level (pixel (u, v) of level l covers the
   /// 2^l x 2^l block starting at (2^l u, 2^l v) of level 0).

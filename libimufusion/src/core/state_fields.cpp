@@ -2,7 +2,10 @@
 
 namespace imufusion {
 
-void describe(StateArchive& a, Intrinsics& x) { a(x.fx, x.fy, x.cx, x.cy, x.width, x.height); }
+void describe(StateArchive& a, Intrinsics& x) {
+  a(x.fx, x.fy, x.cx, x.cy, x.width, x.height);
+  for (double& c : x.distortion) a(c);
+}
 
 void describe(StateArchive& a, PreprocessConfig& x) {
   a(x.levels, x.min_depth, x.max_depth, x.bilateral_radius, x.bilateral_sigma_space,

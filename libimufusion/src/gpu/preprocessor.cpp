@@ -6,6 +6,7 @@
 #include <string>
 #include <utility>
 
+#include "core/undistortion.hpp"
 #include "imufusion_layouts.h"
 
 namespace imufusion {
@@ -67,8 +68,11 @@ Result<Preprocessor> Preprocessor::create(std::shared_ptr<Context> context,
                           std::to_string(intrinsics.fx) + " cannot hold " +
                           std::to_string(config.levels) + " pyramid levels");
   }
+  auto sources = undistortion_sources(intrinsics);
+  if (!sources) return sources.error();
   Preprocessor p;
   p.config_ = config;
+  p.sources_ = std::move(*sources);
   const auto wx = static_cast<std::uint32_t>(config.workgroup_x);
   const auto wy = static_cast<std::uint32_t>(config.workgroup_y);
   auto make = [&](const char* shader, std::uint32_t push_bytes, ComputePipeline& out,
@@ -137,6 +141,11 @@ Status Preprocessor::upload(const DepthView& depth) {
   auto* out = static_cast<std::uint16_t*>(raw_.mapped());
   if (out == nullptr) return make_error(ErrorCode::kInternal, "raw depth buffer is not mapped");
   const auto width = static_cast<std::size_t>(k.width);
+  if (!sources_.empty()) {  // a distorted frame: each pixel from where the lens put its ray
+    for (const std::int32_t s : sources_)
+      *out++ = s < 0 ? std::uint16_t{0} : depth.raw(s % k.width, s / k.width);
+    return {};
+  }
   for (int v = 0; v < depth.height; ++v, out += width) {
     if (depth.format == DepthFormat::kUint16)
       std::memcpy(out, depth.row(v), width * sizeof(std::uint16_t));
@@ -156,11 +165,16 @@ Status Preprocessor::upload_metres(const DepthView& depth) {
     out = metres_scratch_.data();
   }
   const double lo = config_.min_depth, hi = config_.max_depth;
-  for (int v = 0; v < depth.height; ++v) {
-    for (int u = 0; u < depth.width; ++u) {
-      const double d = depth.metres(u, v);  // 0 for none (0, negative, NaN)
-      *out++ = d > 0 && d >= lo && d <= hi ? static_cast<float>(d) : 0.0f;
-    }
+  const int width = depth.width;
+  for (std::size_t i = 0; i < pixels; ++i) {
+    const int u = static_cast<int>(i % static_cast<std::size_t>(width));
+    const int v = static_cast<int>(i / static_cast<std::size_t>(width));
+    const std::int32_t s = sources_.empty() ? static_cast<std::int32_t>(i) : sources_[i];
+    // 0 for none (0, negative, NaN), and where a distorted frame has no source
+    const double d = s < 0              ? 0.0
+                     : sources_.empty() ? depth.metres(u, v)
+                                        : depth.metres(s % width, s / width);
+    *out++ = d > 0 && d >= lo && d <= hi ? static_cast<float>(d) : 0.0f;
   }
   if (raw_metres_.mapped() != nullptr) return {};
   return raw_metres_.upload(metres_scratch_.data(), pixels * sizeof(float));

@@ -53,6 +53,9 @@ class Preprocessor {
   const Buffer& normals(int level) const { return normals_[static_cast<std::size_t>(level)]; }
   const Intrinsics& intrinsics(int level) const { return levels_[static_cast<std::size_t>(level)]; }
   const PreprocessConfig& config() const { return config_; }
+  /// Where each level-0 pixel is taken from in a distorted frame (undistortion_sources): the
+  /// colour registered to the frame is resampled the same way. Empty for a pinhole camera.
+  const std::vector<std::int32_t>& undistortion() const { return sources_; }
 
  private:
   /// The 2x2 reduction from `level - 1` to `level` (depth and map pyramids alike).
@@ -71,6 +74,9 @@ class Preprocessor {
   double depth_scale_ = 0;
   bool metres_input_ = false;          // the last upload was float metres
   std::vector<float> metres_scratch_;  // float metres when raw_metres_ is not host-visible
+  // Per pixel of level 0, its source pixel in a distorted frame (undistortion_sources); empty for
+  // a pinhole camera.
+  std::vector<std::int32_t> sources_;
 };
 
 }  // namespace imufusion::gpu

@@ -1,11 +1,19 @@
 #include "gpu/rgba.hpp"
 
+#include <string>
+
 namespace imufusion::gpu {
 
 namespace {
 
-// Row by row, following the view's stride.
-void pack(const ColorView& image, std::uint32_t* out) {
+// Row by row, following the view's stride; through `sources` when given.
+void pack(const ColorView& image, std::uint32_t* out,
+          const std::vector<std::int32_t>* sources = nullptr) {
+  if (sources != nullptr && !sources->empty()) {
+    for (const std::int32_t s : *sources)
+      *out++ = s < 0 ? 0xFF000000u : image.rgba(s % image.width, s / image.width);
+    return;
+  }
   for (int v = 0; v < image.height; ++v)
     for (int u = 0; u < image.width; ++u) *out++ = image.rgba(u, v);
 }
@@ -17,13 +25,19 @@ void pack_rgba(const ColorView& image, std::vector<std::uint32_t>& out) {
   pack(image, out.data());
 }
 
-Status upload_rgba(const ColorView& image, Buffer& buffer, std::vector<std::uint32_t>& scratch) {
+Status upload_rgba(const ColorView& image, Buffer& buffer, std::vector<std::uint32_t>& scratch,
+                   const std::vector<std::int32_t>* sources) {
   const std::size_t pixels = static_cast<std::size_t>(image.width) * image.height;
+  if (sources != nullptr && !sources->empty() && sources->size() != pixels)
+    return make_error(ErrorCode::kInvalidArgument, "colour frame of " + std::to_string(pixels) +
+                                                       " pixels, the undistortion has " +
+                                                       std::to_string(sources->size()));
   if (buffer.mapped() != nullptr && buffer.size() >= pixels * 4) {
-    pack(image, static_cast<std::uint32_t*>(buffer.mapped()));
+    pack(image, static_cast<std::uint32_t*>(buffer.mapped()), sources);
     return {};
   }
-  pack_rgba(image, scratch);
+  scratch.resize(pixels);
+  pack(image, scratch.data(), sources);
   return buffer.upload(scratch.data(), scratch.size() * 4);
 }
 

@@ -238,14 +238,21 @@ class Loader {
     auto lines = lines_of("calibration.txt", false);
     if (!lines) return;
     if (lines->size() != 1) {
-      add(make_error(ErrorCode::kParseError, path.string() +
-                                                 ": expected one line 'fx fy cx cy', found " +
-                                                 std::to_string(lines->size())));
+      add(make_error(ErrorCode::kParseError,
+                     path.string() + ": expected one line 'fx fy cx cy [k1 k2 p1 p2 k3]', found " +
+                         std::to_string(lines->size())));
       return;
     }
     const TextLine& line = lines->front();
-    double v[4];
-    if (!parse_numbers(line, path, {"fx", "fy", "cx", "cy"}, v)) return;
+    // The lens distortion (OpenCV's order) may follow the pinhole's four numbers.
+    double v[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+    const bool with_distortion = line.fields.size() > 4;
+    if (with_distortion) {
+      if (!parse_numbers(line, path, {"fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3"}, v))
+        return;
+    } else if (!parse_numbers(line, path, {"fx", "fy", "cx", "cy"}, v)) {
+      return;
+    }
     static constexpr const char* kNames[4] = {"fx", "fy", "cx", "cy"};
     for (int i = 0; i < 4; ++i) {
       if (v[i] <= 0) {
@@ -255,7 +262,7 @@ class Loader {
       }
     }
     if (!options_.intrinsics) {
-      info.intrinsics = Intrinsics{v[0], v[1], v[2], v[3], 0, 0};
+      info.intrinsics = Intrinsics{v[0], v[1], v[2], v[3], 0, 0, {v[4], v[5], v[6], v[7], v[8]}};
       info.intrinsics_from_file = true;
     }
   }

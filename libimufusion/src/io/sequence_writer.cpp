@@ -64,7 +64,9 @@ std::string imu_line(const ImuSample& m) {
 }
 
 std::string calibration_text(const Intrinsics& k) {
-  return join_exact({k.fx, k.fy, k.cx, k.cy}) + "\n";
+  if (!k.distorted()) return join_exact({k.fx, k.fy, k.cx, k.cy}) + "\n";
+  const auto& d = k.distortion;
+  return join_exact({k.fx, k.fy, k.cx, k.cy, d[0], d[1], d[2], d[3], d[4]}) + "\n";
 }
 
 std::string imu_to_camera_text(const Eigen::Isometry3d& T_camera_imu) {
@@ -234,6 +236,14 @@ Status SequenceWriter::set_intrinsics(const Intrinsics& k) {
     return make_error(ErrorCode::kInvalidArgument, state_->directory.string() + ": intrinsics " +
                                                        join_exact({k.fx, k.fy, k.cx, k.cy}) +
                                                        " must be positive and finite");
+  }
+  for (const double c : k.distortion) {
+    if (!std::isfinite(c))
+      return make_error(ErrorCode::kInvalidArgument,
+                        state_->directory.string() + ": lens distortion " +
+                            join_exact({k.distortion[0], k.distortion[1], k.distortion[2],
+                                        k.distortion[3], k.distortion[4]}) +
+                            " must be finite");
   }
   state_->intrinsics = k;
   if (!state_->as_you_go) return {};

@@ -41,7 +41,8 @@ Status Reconstructor::Impl::preprocess(const DepthView& depth, const ColorView* 
   IMUFUSION_RETURN_IF_ERROR(finish_preprocess(timings));  // its buffers are written again here
   const auto t0 = Clock::now();
   // The colour is read by fusion, a later submission.
-  if (rgb != nullptr) IMUFUSION_RETURN_IF_ERROR(gpu::upload_rgba(*rgb, color, rgba));
+  if (rgb != nullptr)
+    IMUFUSION_RETURN_IF_ERROR(gpu::upload_rgba(*rgb, color, rgba, &current.undistortion()));
   IMUFUSION_RETURN_IF_ERROR(current.submit(preprocess_seq, depth, tracking_level));
   timings.preprocess_ms += ms_since(t0);
   return {};

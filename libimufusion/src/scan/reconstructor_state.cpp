@@ -21,7 +21,7 @@ namespace imufusion {
 namespace {
 
 constexpr std::array<char, 8> kMagic = {'I', 'M', 'U', 'F', 'S', 'C', 'A', 'N'};
-constexpr std::uint32_t kVersion = 1;
+constexpr std::uint32_t kVersion = 2;  // 2: the lens distortion in the intrinsics
 constexpr std::size_t kHeaderBytes = 24;
 
 void describe_volume(StateArchive& a, gpu::TsdfVolume::Contents& c) {
