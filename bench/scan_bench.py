@@ -123,7 +123,7 @@ def ours(args, sequence, out):
         "frames": len(frame_ms), "not_tracking": s["lost_frames"] + s["recovering_frames"],
         "ate": ate(args, sequence, out / "trajectory.txt"), "device": s.get("device", ""),
         "tracking_size": s["settings"].get("tracking_size", ""), "stage_ms": s["stage_ms"],
-        "kernels": s["kernel_gpu_ms"],
+        "kernels": s["kernel_gpu_ms"], "raycast_steps": s.get("raycast_steps_per_ray"),
     }
 
 
@@ -179,6 +179,9 @@ def report(name, runs):
     dispatches = sum(k["dispatches"] for k in last["kernels"])
     print("  all kernels %.1f ms of GPU time in %.0f dispatches per frame; the rest of the %.1f ms is"
           " host work and waits" % (gpu, dispatches, total))
+    if last["raycast_steps"] is not None:
+        print("  the raycast marches %.1f steps per ray (the last frame's model raycast)"
+              % last["raycast_steps"])
 
 
 def main():

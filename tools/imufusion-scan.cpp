@@ -256,6 +256,8 @@ struct ScanInputs {
 // After the last frame: --save-state (before finish(), which would settle a recovery the
 // continued scan may still complete), then finish().
 void end_scan(const ScanOptions& opt, Reconstructor& rec, ScanRun& run, int& exit_code) {
+  // Before finish() and the pictures raycast again.
+  if (auto steps = rec.raycast_steps_per_ray()) run.raycast_steps_per_ray = *steps;
   if (!opt.save_state.empty()) {
     const auto t0 = std::chrono::steady_clock::now();
     if (const Status saved = rec.save(opt.save_state); !saved) {

@@ -32,6 +32,7 @@ struct ScanRun {
   bool mounting_warned = false;  // the given IMU mounting was reported to disagree
   std::vector<double> lost_at;   // s, the frames whose pose tracking did not give, in order
   std::size_t frames_without_pose = 0;
+  std::optional<double> raycast_steps_per_ray;  // of the last frame's model raycast
 };
 
 // summary.json's "stage_ms" (mean wall ms per frame of each stage) and "kernel_gpu_ms" (mean GPU
@@ -145,6 +146,7 @@ inline nlohmann::json summary_json(const ScanOptions& opt, const Reconstructor& 
   j["device"] = rec.device().name;
   write_frame_counts(stats, rec, j);
   write_stage_times(stats, j);
+  if (run.raycast_steps_per_ray) j["raycast_steps_per_ray"] = *run.raycast_steps_per_ray;
   if (!run.stopped.empty()) j["stopped_early"] = run.stopped;
   if (run.frames_without_pose > 0) j["frames_without_pose"] = run.frames_without_pose;
   j["settings"] = scan_settings_json(opt, rec, run, reader);

@@ -13,6 +13,9 @@ namespace fs = std::filesystem;
 
 TEST_F(ReconstructorTest, TracksTheRoomWithTheImuInTwoIterationsPerFrame) {
   Reconstructor rec = make(config(true, 2));
+  auto no_steps = rec.raycast_steps_per_ray();
+  ASSERT_TRUE(no_steps.ok());
+  EXPECT_EQ(*no_steps, 0.0);  // no raycast yet
   std::vector<FrameResult> results;
   for (const Frame& f : frames_) {
     auto r = rec.track_and_fuse(f.timestamp, f.depth, f.color ? &*f.color : nullptr, f.imu);
@@ -32,6 +35,12 @@ TEST_F(ReconstructorTest, TracksTheRoomWithTheImuInTwoIterationsPerFrame) {
   EXPECT_EQ(rec.trajectory().size(), frames_.size());
   EXPECT_LT(ate(rec.trajectory()), 0.01);
   EXPECT_GT(rec.allocated_blocks(), 0u);
+  // The last frame's model raycast marched its rays: at least a step each, and far fewer steps
+  // than voxels along a ray.
+  auto steps = rec.raycast_steps_per_ray();
+  ASSERT_TRUE(steps.ok()) << steps.error().describe();
+  EXPECT_GE(*steps, 1.0);
+  EXPECT_LT(*steps, 100.0);
   auto mesh = rec.extract_mesh();
   ASSERT_TRUE(mesh.ok()) << mesh.error().describe();
   EXPECT_GT(mesh->triangles.size(), 1000u);

@@ -271,6 +271,9 @@ class Reconstructor {
   std::uint32_t pool_growths() const;
   /// Device memory the TSDF volume reserves now (bytes, VolumeConfig::reserved_bytes).
   std::uint64_t memory_bytes() const;
+  /// Mean march steps per ray of the volume's last raycast (right after process(): the frame's
+  /// model raycast), over the rays that marched; 0 before any. What bounds the raycast's time.
+  Result<double> raycast_steps_per_ray() const;
   std::uint32_t validation_error_count() const;
 
  private:

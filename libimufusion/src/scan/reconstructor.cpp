@@ -426,6 +426,17 @@ int Reconstructor::tracking_level() const { return impl_->tracking_level; }
 std::uint32_t Reconstructor::allocated_blocks() const { return impl_->volume.allocated_blocks(); }
 std::uint32_t Reconstructor::pool_blocks() const { return impl_->volume.pool_blocks(); }
 std::uint32_t Reconstructor::pool_growths() const { return impl_->volume.pool_growths(); }
+
+Result<double> Reconstructor::raycast_steps_per_ray() const {
+  auto steps = impl_->volume.last_raycast_steps();
+  if (!steps) return steps.error();
+  std::uint64_t total = 0, marched = 0;
+  for (const std::uint32_t n : *steps) {
+    total += n;
+    marched += n > 0 ? 1 : 0;
+  }
+  return marched == 0 ? 0.0 : static_cast<double>(total) / static_cast<double>(marched);
+}
 std::uint64_t Reconstructor::memory_bytes() const { return impl_->volume.reserved_bytes(); }
 std::uint32_t Reconstructor::validation_error_count() const {
   return impl_->context->validation_error_count();
