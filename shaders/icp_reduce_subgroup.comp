@@ -10,17 +10,7 @@
 // order is fixed for a given device, so results are deterministic there.
 #define GROUP 128
 #define CHUNK 17
-layout(local_size_x = GROUP, local_size_y = 1, local_size_z = 1) in;
-layout(constant_id = 0) const uint unused_x = 1;  // the runtime's workgroup specialization slots
-layout(constant_id = 1) const uint unused_y = 1;
-layout(std430, set = 0, binding = 0) readonly buffer Rows { vec4 rows[]; };
-layout(std430, set = 0, binding = 1) readonly buffer CurVertices { vec4 cur_vertices[]; };
-layout(std430, set = 0, binding = 2) writeonly buffer Partials { float partials[]; };
-layout(push_constant) uniform Push { IcpReduceParams p; };
-
 #include "icp_reduce_rows.glsl"
-
-shared float sums[CHUNK][GROUP];
 
 void main() {
   uint t = gl_LocalInvocationID.x;

@@ -1,7 +1,16 @@
-// The first stage of icp_reduce and icp_reduce_subgroup (see IcpReduceParams): the including
-// shader declares `rows[]`, `cur_vertices[]` and the push constants `p` before including this file.
-// accumulate_rows(g, t, stride) adds, in acc, rows g * rows_per_group + t, + stride, ... of the
-// workgroup's range.
+// The interface and first stage of icp_reduce and icp_reduce_subgroup (see IcpReduceParams); the
+// including shader defines GROUP (invocations per workgroup) and CHUNK (values per shared-memory
+// pass) first. accumulate_rows(g, t, stride) adds, in acc, rows g * rows_per_group + t, + stride,
+// ... of the workgroup's range.
+layout(local_size_x = GROUP, local_size_y = 1, local_size_z = 1) in;
+layout(constant_id = 0) const uint unused_x = 1;  // the runtime's workgroup specialization slots
+layout(constant_id = 1) const uint unused_y = 1;
+layout(std430, set = 0, binding = 0) readonly buffer Rows { vec4 rows[]; };
+layout(std430, set = 0, binding = 1) readonly buffer CurVertices { vec4 cur_vertices[]; };
+layout(std430, set = 0, binding = 2) writeonly buffer Partials { float partials[]; };
+layout(push_constant) uniform Push { IcpReduceParams p; };
+
+shared float sums[CHUNK][GROUP];
 
 float acc[ICP_REDUCE_VALUES];
 

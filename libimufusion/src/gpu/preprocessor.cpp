@@ -167,13 +167,9 @@ Status Preprocessor::upload_metres(const DepthView& depth) {
   const double lo = config_.min_depth, hi = config_.max_depth;
   const int width = depth.width;
   for (std::size_t i = 0; i < pixels; ++i) {
-    const int u = static_cast<int>(i % static_cast<std::size_t>(width));
-    const int v = static_cast<int>(i / static_cast<std::size_t>(width));
+    // The pixel itself, or its source in a distorted frame (-1: none there).
     const std::int32_t s = sources_.empty() ? static_cast<std::int32_t>(i) : sources_[i];
-    // 0 for none (0, negative, NaN), and where a distorted frame has no source
-    const double d = s < 0              ? 0.0
-                     : sources_.empty() ? depth.metres(u, v)
-                                        : depth.metres(s % width, s / width);
+    const double d = s < 0 ? 0.0 : depth.metres(s % width, s / width);  // 0 for none
     *out++ = d > 0 && d >= lo && d <= hi ? static_cast<float>(d) : 0.0f;
   }
   if (raw_metres_.mapped() != nullptr) return {};
