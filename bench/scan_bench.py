@@ -124,6 +124,8 @@ def ours(args, sequence, out):
         "ate": ate(args, sequence, out / "trajectory.txt"), "device": s.get("device", ""),
         "tracking_size": s["settings"].get("tracking_size", ""), "stage_ms": s["stage_ms"],
         "kernels": s["kernel_gpu_ms"], "raycast_steps": s.get("raycast_steps_per_ray"),
+        "model_raycasts": s.get("model_raycasts"),
+        "reference_frames": s["settings"].get("reference_frames"),
     }
 
 
@@ -180,8 +182,11 @@ def report(name, runs):
     print("  all kernels %.1f ms of GPU time in %.0f dispatches per frame; the rest of the %.1f ms is"
           " host work and waits" % (gpu, dispatches, total))
     if last["raycast_steps"] is not None:
-        print("  the raycast marches %.1f steps per ray (the last frame's model raycast)"
+        print("  the raycast marches %.1f steps per ray (the scan's last model raycast)"
               % last["raycast_steps"])
+    if last["model_raycasts"] is not None:
+        print("  %d of %d frames raycast the model as ICP's next reference (a reference serves at"
+              " most %s frames)" % (last["model_raycasts"], last["frames"], last["reference_frames"]))
 
 
 def main():

@@ -115,6 +115,7 @@ ReconstructorConfig make_config(const ScanOptions& opt, const SequenceReader* re
   config.volume.block_capacity = opt.block_capacity;
   config.volume.initial_blocks = opt.initial_blocks;
   config.tracking_level = opt.tracking_level;
+  config.reference_frames = opt.reference_frames;
   // The hash table keeps at least 4 slots per block, as the defaults do.
   while (config.volume.hash_slots < 4ull * opt.block_capacity) config.volume.hash_slots *= 2;
   config.device.selector = opt.device;

@@ -38,6 +38,7 @@ struct ScanOptions {
   std::uint32_t block_capacity = VolumeConfig{}.block_capacity;
   std::uint32_t initial_blocks = VolumeConfig{}.initial_blocks;
   int tracking_level = ReconstructorConfig{}.tracking_level;
+  int reference_frames = ReconstructorConfig{}.reference_frames;
   long max_frames = -1;  // scanned (kept) frames at most; -1: all
   std::size_t frame_step = 1;
   std::string device;
@@ -66,8 +67,8 @@ inline int scan_usage(std::ostream& out, int code) {
          "                      [--realtime] [--imu-udp PORT] [--imu-udp-address ADDR] [--record "
          "DIR]\n"
          "                      [--frame-step N] [--block-capacity N] [--initial-blocks N]\n"
-         "                      [--tracking-level N] [--save-state FILE] [--resume FILE]\n"
-         "                      [--distortion K1,K2,P1,P2,K3]\n"
+         "                      [--tracking-level N] [--reference-frames N] [--save-state FILE]\n"
+         "                      [--resume FILE] [--distortion K1,K2,P1,P2,K3]\n"
          "Scans SEQUENCE, a camera (openni2:// or openni2://URI) or a recording (FILE.oni) "
          "(default:\n"
          "the embedded demo room, synthesized into --demo-dir, default ./demo) and writes DIR "
@@ -114,6 +115,10 @@ inline int scan_usage(std::ostream& out, int code) {
          "half\n"
          "                           (default: 1 on a CPU device, 0 on a GPU); fusion takes the "
          "full frame\n"
+         "  --reference-frames N     frames one model raycast serves as ICP's reference while the\n"
+         "                           view moves little (default: "
+      << kCpuReferenceFrames
+      << " on a CPU device, 1 on a GPU)\n"
          "  --save-state FILE        save the scan after its last frame, to continue it with "
          "--resume\n"
          "  --resume FILE            continue the scan saved in FILE with the sequence's frames "
@@ -190,6 +195,9 @@ inline int parse_scan_value(const std::string& a, const std::string& v, ScanOpti
   } else if (a == "--tracking-level") {
     if (!integer || *integer < 0 || *integer > 2) return bad("a pyramid level 0..2");
     opt.tracking_level = static_cast<int>(*integer);
+  } else if (a == "--reference-frames") {
+    if (!integer || *integer < 1 || *integer > 1000) return bad("a count 1..1000");
+    opt.reference_frames = static_cast<int>(*integer);
   } else if (a == "--block-capacity") {
     if (!integer || *integer < 1 || *integer > (1 << 21)) return bad("a count 1..2097152");
     opt.block_capacity = static_cast<std::uint32_t>(*integer);

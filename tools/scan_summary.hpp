@@ -32,7 +32,7 @@ struct ScanRun {
   bool mounting_warned = false;  // the given IMU mounting was reported to disagree
   std::vector<double> lost_at;   // s, the frames whose pose tracking did not give, in order
   std::size_t frames_without_pose = 0;
-  std::optional<double> raycast_steps_per_ray;  // of the last frame's model raycast
+  std::optional<double> raycast_steps_per_ray;  // of the scan's last model raycast
 };
 
 // summary.json's "stage_ms" (mean wall ms per frame of each stage) and "kernel_gpu_ms" (mean GPU
@@ -96,6 +96,8 @@ inline nlohmann::json scan_settings_json(const ScanOptions& opt, const Reconstru
   const Intrinsics tracked = c.intrinsics.at_level(rec.tracking_level());
   s["tracking_level"] = rec.tracking_level();
   s["tracking_size"] = std::to_string(tracked.width) + "x" + std::to_string(tracked.height);
+  s["reference_frames"] = rec.reference_frames();
+  s["reference_motion_pixels"] = c.reference_motion_pixels;
   s["lens_distortion"] = c.intrinsics.distortion;  // k1 k2 p1 p2 k3; all 0: a pinhole
   s["recovery_icp_iterations"] = c.recovery.icp_iterations;
   s["recovery_frames"] = c.tracking.recovery_frames;
@@ -130,6 +132,7 @@ inline void write_frame_counts(const ScanStatistics& stats, const Reconstructor&
   j["median_frame_ms"] = stats.median_frame_ms;
   j["blocks_allocated"] = rec.allocated_blocks();
   j["block_capacity"] = rec.config().volume.block_capacity;
+  j["model_raycasts"] = stats.new_references;  // frames that raycast the next reference
   j["pool_full_frames"] = stats.pool_full_frames;
   if (stats.pool_full_frames > 0) j["first_pool_full_frame"] = stats.first_pool_full_frame;
   j["pool_blocks_reserved"] = rec.pool_blocks();

@@ -97,6 +97,10 @@ void bind_reconstructor_config(py::module_& m) {
       .def_readwrite("device", &ReconstructorConfig::device)
       .def_readwrite("tracking_level", &ReconstructorConfig::tracking_level,
                      "pyramid level of ICP and the raycast; -1: by device")
+      .def_readwrite("reference_frames", &ReconstructorConfig::reference_frames,
+                     "frames one model raycast serves as ICP's reference; 0: by device")
+      .def_readwrite("reference_motion_pixels", &ReconstructorConfig::reference_motion_pixels,
+                     "px of image motion since the reference from which a frame raycasts again")
       .def(
           "validate", [](const ReconstructorConfig& self) { check(self.validate()); },
           "Raises imufusion.Error naming the first setting out of range");

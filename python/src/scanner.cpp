@@ -61,6 +61,7 @@ void bind_frame_result(py::module_& m) {
       .def_readonly("recovered", &FrameResult::recovered, "this frame ended a loss")
       .def_readonly("relocalized", &FrameResult::relocalized)
       .def_readonly("retracked", &FrameResult::retracked)
+      .def_readonly("new_reference", &FrameResult::new_reference)
       .def_readonly("icp_ran", &FrameResult::icp_ran)
       .def_property_readonly("icp_reliable", [](const FrameResult& f) { return f.icp.reliable(); })
       .def_property_readonly("icp_iterations",
@@ -191,6 +192,7 @@ void bind_scanner(py::module_& m) {
           "a copy of the configuration")
       .def_property_readonly("device", [](const Reconstructor& self) { return self.device().name; })
       .def_property_readonly("tracking_level", &Reconstructor::tracking_level)
+      .def_property_readonly("reference_frames", &Reconstructor::reference_frames)
       .def_property_readonly("allocated_blocks", &Reconstructor::allocated_blocks)
       .def_property_readonly("pool_blocks", &Reconstructor::pool_blocks)
       .def_property_readonly("pool_growths", &Reconstructor::pool_growths)

@@ -147,6 +147,47 @@ TEST_F(ReconstructorTest, TracksAtHalfSizeWhileFusingTheFullFrame) {
   EXPECT_FALSE(Reconstructor::create(c).ok());
 }
 
+// ReconstructorConfig::reference_frames: a model raycast serves as ICP's reference for up to that
+// many tracked frames while the view moves less than reference_motion_pixels since it; the room
+// tracks as well as with a raycast after every frame. The default follows the device.
+TEST_F(ReconstructorTest, AModelRaycastServesTheNextFramesWhileTheViewMovesLittle) {
+  const DeviceType type = make(config(true, 2)).device().type;
+  EXPECT_EQ(make(config(true, 2)).reference_frames(),
+            type == DeviceType::kCpu ? kCpuReferenceFrames : 1);
+  struct Case {
+    int frames;
+    double pixels;
+  };
+  for (const Case c : {Case{1, 1e9}, Case{3, 1e9}, Case{3, 0.0}}) {
+    SCOPED_TRACE("reference_frames " + std::to_string(c.frames) + ", motion " +
+                 std::to_string(c.pixels) + " px");
+    ReconstructorConfig cfg = config(true, 2);
+    cfg.reference_frames = c.frames;
+    cfg.reference_motion_pixels = c.pixels;
+    Reconstructor rec = make(cfg);
+    EXPECT_EQ(rec.reference_frames(), c.frames);
+    std::vector<FrameResult> results;
+    for (const Frame& f : frames_) {
+      auto r = rec.track_and_fuse(f.timestamp, f.depth, nullptr, f.imu);
+      ASSERT_TRUE(r.ok()) << r.error().describe();
+      ASSERT_EQ(r->status, TrackingStatus::kTracking) << "t=" << f.timestamp;
+      results.push_back(*r);
+    }
+    // Every frame raycasts where the reference serves one frame or where any motion counts;
+    // otherwise each of the first 3 frames (the model holds fewer than 3), then every third
+    // (all track).
+    std::size_t expected_count = 0;
+    for (std::size_t i = 0; i < results.size(); ++i) {
+      const bool expected = c.frames == 1 || c.pixels == 0 || i < 3 || i % 3 == 2;
+      EXPECT_EQ(results[i].new_reference, expected) << "frame " << i;
+      expected_count += expected ? 1 : 0;
+    }
+    EXPECT_EQ(summarize_scan(results).new_references, expected_count);
+    if (c.frames == 3 && c.pixels > 0) EXPECT_LT(expected_count, results.size() / 2);
+    EXPECT_LT(ate(rec.trajectory()), 0.01);
+  }
+}
+
 TEST_F(ReconstructorTest, BaselineWithoutImuTracksWithMoreIterations) {
   Reconstructor rec = make(config(false, 30));
   std::vector<FrameResult> results;

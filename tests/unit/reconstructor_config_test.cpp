@@ -36,6 +36,20 @@ TEST(ReconstructorConfig, RejectsSettingsOutOfRange) {
   }
   c.tracking_level = c.preprocess.levels - 1;
   EXPECT_TRUE(c.validate().ok());
+  c.reference_frames = -1;
+  s = c.validate();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("reference_frames"), std::string::npos);
+  c.reference_frames = 1;
+  for (const double pixels :
+       {-1.0, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
+    c.reference_motion_pixels = pixels;
+    s = c.validate();
+    ASSERT_FALSE(s.ok()) << pixels;
+    EXPECT_NE(s.error().message.find("reference_motion_pixels"), std::string::npos);
+  }
+  c.reference_motion_pixels = 0;  // a raycast after every frame that moved at all
+  EXPECT_TRUE(c.validate().ok());
   c.smoothing.gravity_sigma_scale = 0;
   s = c.validate();
   ASSERT_FALSE(s.ok());

@@ -104,6 +104,8 @@ struct LossSmoothingConfig {
 /// 320x240 there (ReconstructorConfig::tracking_level).
 inline constexpr int kMinCpuTrackingWidth = 320;
 inline constexpr int kMinCpuTrackingHeight = 240;
+/// ReconstructorConfig::reference_frames chosen by default on a CPU device.
+inline constexpr int kCpuReferenceFrames = 3;
 
 struct ReconstructorConfig {
   Intrinsics intrinsics;  // of the depth camera; frames must have its size
@@ -121,6 +123,14 @@ struct ReconstructorConfig {
   /// fusion always takes the full frame. -1: by device, the full frame on a GPU and on a CPU
   /// device the coarsest level of at least kMinCpuTrackingWidth x Height (bench/README.md).
   int tracking_level = -1;
+  /// Frames one model raycast serves as ICP's reference while tracking (1: a raycast after every
+  /// frame): a frame that ICP tracked keeps the reference while it is younger than this and the
+  /// view moved less than reference_motion_pixels since it. 0: by device, kCpuReferenceFrames on
+  /// a CPU device (where the raycast is most of the frame; bench/README.md), 1 on a GPU.
+  int reference_frames = 0;
+  /// px at the tracking level: the image motion since the reference (its rotation plus its
+  /// translation over the frame's median depth) from which a frame raycasts again. Default 8.
+  double reference_motion_pixels = 8;
   Eigen::Isometry3d initial_pose = Eigen::Isometry3d::Identity();  // T_world_camera of frame 0, m
 
   /// Fails naming the first setting out of range.
@@ -160,6 +170,9 @@ struct FrameResult {
   /// This recovering frame disagreed with the ones counted before it and started the recovery's
   /// count again (ReconstructorConfig::recovery.agreement_distance).
   bool recovery_restarted = false;
+  /// The model was raycast from this frame's pose as the next frame's ICP reference; false when
+  /// the reference before it still serves (ReconstructorConfig::reference_frames).
+  bool new_reference = false;
   /// ICP of this frame against the model (not run for the first frame or known poses).
   bool icp_ran = false;
   IcpResult icp;
@@ -264,6 +277,9 @@ class Reconstructor {
   /// The pyramid level ICP and the model raycast run at (ReconstructorConfig::tracking_level,
   /// resolved for the device).
   int tracking_level() const;
+  /// Frames one model raycast serves as ICP's reference (ReconstructorConfig::reference_frames,
+  /// resolved for the device).
+  int reference_frames() const;
   /// Blocks of the TSDF volume that hold voxels, those its pool holds room for now (it grows as
   /// the scene needs, up to VolumeConfig::block_capacity), and how many times it grew.
   std::uint32_t allocated_blocks() const;
@@ -271,8 +287,9 @@ class Reconstructor {
   std::uint32_t pool_growths() const;
   /// Device memory the TSDF volume reserves now (bytes, VolumeConfig::reserved_bytes).
   std::uint64_t memory_bytes() const;
-  /// Mean march steps per ray of the volume's last raycast (right after process(): the frame's
-  /// model raycast), over the rays that marched; 0 before any. What bounds the raycast's time.
+  /// Mean march steps per ray of the volume's last raycast (after track_and_fuse(): the latest
+  /// model raycast, FrameResult::new_reference), over the rays that marched; 0 before any. What
+  /// bounds the raycast's time.
   Result<double> raycast_steps_per_ray() const;
   std::uint32_t validation_error_count() const;
 

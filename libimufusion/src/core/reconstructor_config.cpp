@@ -24,6 +24,12 @@ Status ReconstructorConfig::validate() const {
   if (tracking_level < -1 || tracking_level >= preprocess.levels)
     return bad("tracking_level must be -1 (by device) or a pyramid level below " +
                std::to_string(preprocess.levels) + ", got " + std::to_string(tracking_level));
+  if (reference_frames < 0)
+    return bad("reference_frames must be 0 (by device) or at least 1, got " +
+               std::to_string(reference_frames));
+  if (!(reference_motion_pixels >= 0 && std::isfinite(reference_motion_pixels)))
+    return bad("reference_motion_pixels must be finite and non-negative, got " +
+               std::to_string(reference_motion_pixels));
   if (tracking.prediction_window < 0)
     return bad("tracking.prediction_window must be non-negative, got " +
                std::to_string(tracking.prediction_window));

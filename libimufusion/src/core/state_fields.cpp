@@ -68,7 +68,8 @@ void describe(StateArchive& a, LossSmoothingConfig& x) {
 
 void describe(StateArchive& a, ReconstructorConfig& x) {
   a(x.intrinsics, x.preprocess, x.icp, x.volume, x.tracking, x.inertial, x.imu, x.relocalization,
-    x.recovery, x.smoothing, x.tracking_level, x.initial_pose);
+    x.recovery, x.smoothing, x.tracking_level, x.reference_frames, x.reference_motion_pixels,
+    x.initial_pose);
 }
 
 void describe(StateArchive& a, ImuSample& x) { a(x.timestamp, x.gyro, x.accel); }

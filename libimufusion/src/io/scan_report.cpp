@@ -87,6 +87,7 @@ void ScanSummary::add(const FrameResult& f) {
     ++s.broken_recoveries;
   previous_status_ = f.status;
   s.retracked += f.retracked;
+  if (f.new_reference) ++s.new_references;
   if (f.fused && f.integration.pool_full > 0 && s.pool_full_frames++ == 0)
     s.first_pool_full_frame = i;
   if (f.icp_ran) iterations_.push_back(static_cast<float>(f.icp.quality.iterations));

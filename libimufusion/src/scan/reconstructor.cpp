@@ -76,12 +76,12 @@ Status Reconstructor::Impl::raycast_model(const Intrinsics& k,
                         out.shaded, out.colors, timings);
 }
 
-// Records the frame's fusion at T_world_camera (with `fuse`) and the model raycast from there
-// with the ICP reference maps from it, in one submission, and waits for it. The submission's wall
-// time is split between integrate_ms and raycast_ms by their kernels' GPU times.
+// Records the frame's fusion at T_world_camera (with `fuse`) and, unless `keep_reference`, the
+// model raycast from there with the ICP reference maps from it, in one submission, and waits. The
+// submission's wall time is split between integrate_ms and raycast_ms by their kernels' GPU times.
 Status Reconstructor::Impl::submit_fuse_and_reference(const Eigen::Isometry3d& T_world_camera,
                                                       bool fuse, bool with_color,
-                                                      FrameTimings& timings) {
+                                                      FrameTimings& timings, bool keep_reference) {
   const auto t0 = Clock::now();
   const Intrinsics k = config.intrinsics.at_level(tracking_level);
   IMUFUSION_RETURN_IF_ERROR(fuse_seq.begin());
@@ -91,11 +91,11 @@ Status Reconstructor::Impl::submit_fuse_and_reference(const Eigen::Isometry3d& T
         volume.record_integrate(fuse_seq, current.raw_depth_metres(), with_color ? &color : nullptr,
                                 config.intrinsics, T_world_camera);
   const std::size_t integrate_kernels = fuse ? gpu::TsdfVolume::kIntegrateDispatches : 0;
-  if (recorded.ok())
+  if (recorded.ok() && !keep_reference)
     recorded = volume.record_raycast(fuse_seq, k, T_world_camera, depth_range().first,
                                      depth_range().second, model.vertices, model.normals,
                                      model.shaded, model.colors);
-  if (recorded.ok())
+  if (recorded.ok() && !keep_reference)
     reference.record_maps_from(fuse_seq, model.vertices, model.normals, tracking_level);
   auto t = fuse_seq.submit_and_wait();  // ends the recording also after a failed record
   IMUFUSION_RETURN_IF_ERROR(recorded);
@@ -114,14 +114,39 @@ Status Reconstructor::Impl::submit_fuse_and_reference(const Eigen::Isometry3d& T
   return {};
 }
 
+// Whether the reference serves a tracked frame at T_world_camera as well (ReconstructorConfig::
+// reference_frames): it is younger than reference_frames, the view moved less than
+// reference_motion_pixels since it, at the frame's median depth, and the model it shows held at
+// least reference_frames frames (each of a young model's frames changes it much).
+bool Reconstructor::Impl::reference_serves(const Eigen::Isometry3d& T_world_camera,
+                                           const DepthView& depth) const {
+  if (!has_reference || reference_age + 1 >= reference_frames) return false;
+  const auto frames = static_cast<std::size_t>(reference_frames);
+  if (fused_frames < frames + static_cast<std::size_t>(reference_age)) return false;
+  const double z = median_depth(depth);
+  if (z <= 0) return false;
+  const Eigen::Isometry3d moved = T_world_reference.inverse() * T_world_camera;
+  const double f =
+      std::ldexp(std::max(config.intrinsics.fx, config.intrinsics.fy), -tracking_level);
+  const double pixels =
+      f * (Eigen::AngleAxisd(moved.linear()).angle() + moved.translation().norm() / z);
+  return pixels < config.reference_motion_pixels;
+}
+
 // Fuses the frame at T_world_camera (with `fuse`) and makes the model seen from there the next
-// frame's ICP reference. A frame whose new blocks overflowed the pool fused nothing: the pool has
-// grown, and the frame is fused and the reference raycast again.
+// frame's ICP reference, or with `keep_reference` keeps the one it has. A frame whose new blocks
+// overflowed the pool fused nothing: the pool has grown, and the frame is fused and the reference
+// raycast again.
 Result<std::optional<IntegrationStats>> Reconstructor::Impl::fuse_and_update_reference(
-    const Eigen::Isometry3d& T_world_camera, bool fuse, bool with_color, FrameTimings& timings) {
+    const Eigen::Isometry3d& T_world_camera, bool fuse, bool with_color, FrameTimings& timings,
+    bool keep_reference) {
+  keep_reference = keep_reference && has_reference;
+  const int age = keep_reference ? reference_age + 1 : 0;
   for (;;) {
-    IMUFUSION_RETURN_IF_ERROR(submit_fuse_and_reference(T_world_camera, fuse, with_color, timings));
-    T_world_reference = T_world_camera;
+    IMUFUSION_RETURN_IF_ERROR(
+        submit_fuse_and_reference(T_world_camera, fuse, with_color, timings, keep_reference));
+    if (!keep_reference) T_world_reference = T_world_camera;
+    reference_age = age;
     has_reference = true;
     if (!fuse) return std::optional<IntegrationStats>{};
     auto stats = volume.finish_integrate();
@@ -264,15 +289,22 @@ void Reconstructor::Impl::note_decision(const TrackingDecision& decision, const 
 // Fuses the frame at its pose, makes the model seen from there the next reference and appends
 // the frame to the trajectory.
 Status Reconstructor::Impl::fuse_and_record(const TrackingDecision& decision, double timestamp,
-                                            bool with_color, FrameResult& r) {
+                                            const DepthView& depth, bool with_color,
+                                            FrameResult& r) {
   r.status = decision.status;
   r.source = decision.source;
   r.recovered = decision.recovered;
-  auto stats = fuse_and_update_reference(r.T_world_camera, decision.fuse, with_color, r.timings);
+  const bool keep = decision.status == TrackingStatus::kTracking &&
+                    decision.source == PoseSource::kIcp && decision.fuse &&
+                    reference_serves(r.T_world_camera, depth);
+  auto stats =
+      fuse_and_update_reference(r.T_world_camera, decision.fuse, with_color, r.timings, keep);
   if (!stats) return stats.error();
+  r.new_reference = reference_age == 0;
   if (*stats) {
     r.integration = **stats;
     r.fused = true;
+    ++fused_frames;
     relocalization.model_changed();
   }
   if (decision.source == PoseSource::kInitial && decision.fuse)
@@ -305,7 +337,7 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthV
       decision.status == TrackingStatus::kTracking &&
           (decision.source == PoseSource::kIcp || decision.source == PoseSource::kInitial),
       timestamp, r.T_world_camera);
-  IMUFUSION_RETURN_IF_ERROR(m.fuse_and_record(decision, timestamp, color != nullptr, r));
+  IMUFUSION_RETURN_IF_ERROR(m.fuse_and_record(decision, timestamp, depth, color != nullptr, r));
   frame->T_world_camera = r.T_world_camera;
   auto retracked =
       m.recovery.on_frame(*frame, depth, m.navigator_or_null(), m.trajectory, m, r.timings);
@@ -411,6 +443,8 @@ Status Reconstructor::reset() {
   if (m.navigator) m.navigator->reset();
   m.trajectory.clear();
   m.has_reference = false;
+  m.reference_age = 0;
+  m.fused_frames = 0;
   m.seed_gate_holding = false;
   m.relocalization.reset();
   m.recovery.reset();
@@ -423,6 +457,7 @@ const Trajectory& Reconstructor::trajectory() const { return impl_->trajectory; 
 const ReconstructorConfig& Reconstructor::config() const { return impl_->config; }
 const DeviceInfo& Reconstructor::device() const { return impl_->context->info(); }
 int Reconstructor::tracking_level() const { return impl_->tracking_level; }
+int Reconstructor::reference_frames() const { return impl_->reference_frames; }
 std::uint32_t Reconstructor::allocated_blocks() const { return impl_->volume.allocated_blocks(); }
 std::uint32_t Reconstructor::pool_blocks() const { return impl_->volume.pool_blocks(); }
 std::uint32_t Reconstructor::pool_growths() const { return impl_->volume.pool_growths(); }

@@ -41,13 +41,8 @@ IcpReliabilityThresholds Reconstructor::Impl::reliability(const DepthView& depth
   return t;
 }
 
-// The coarsest pyramid level ICP needs from an inertial seed (ReconstructorConfig::
-// imu.seed_reach_pixels): the finest level at which 3 sigma of the seed's image motion, at
-// the frame's median depth, is within the reach.
-int Reconstructor::Impl::seed_start_level(const MotionPrediction& prediction,
-                                          const DepthView& depth) const {
-  const int coarsest = config.preprocess.levels - 1 - tracking_level;  // ICP's levels
-  const double reach = config.imu.seed_reach_pixels;
+// The median of the frame's valid depths (m), from every 7th pixel; 0 when none is valid.
+double Reconstructor::Impl::median_depth(const DepthView& depth) const {
   std::vector<double> z;
   const auto pixels = static_cast<std::size_t>(depth.width) * depth.height;
   const auto width = static_cast<std::size_t>(depth.width);
@@ -55,12 +50,23 @@ int Reconstructor::Impl::seed_start_level(const MotionPrediction& prediction,
     const double d = depth.metres(static_cast<int>(i % width), static_cast<int>(i / width));
     if (valid_depth(d)) z.push_back(d);
   }
-  if (z.empty()) return coarsest;
+  if (z.empty()) return 0;
   std::nth_element(z.begin(), z.begin() + static_cast<std::ptrdiff_t>(z.size() / 2), z.end());
+  return z[z.size() / 2];
+}
+
+// The coarsest pyramid level ICP needs from an inertial seed (ReconstructorConfig::
+// imu.seed_reach_pixels): the finest level at which 3 sigma of the seed's image motion, at
+// the frame's median depth, is within the reach.
+int Reconstructor::Impl::seed_start_level(const MotionPrediction& prediction,
+                                          const DepthView& depth) const {
+  const int coarsest = config.preprocess.levels - 1 - tracking_level;  // ICP's levels
+  const double reach = config.imu.seed_reach_pixels;
+  const double z = median_depth(depth);
+  if (z <= 0) return coarsest;
   const double f =
       std::ldexp(std::max(config.intrinsics.fx, config.intrinsics.fy), -tracking_level);
-  const double motion =
-      3 * f * (prediction.rotation_sigma + prediction.translation_sigma / z[z.size() / 2]);
+  const double motion = 3 * f * (prediction.rotation_sigma + prediction.translation_sigma / z);
   int level = 0;
   while (level < coarsest && motion > reach * std::ldexp(1.0, level)) ++level;
   return level;

@@ -29,6 +29,12 @@ int resolve_tracking_level(const ReconstructorConfig& config, DeviceType device)
   return level;
 }
 
+// ReconstructorConfig::reference_frames 0: kCpuReferenceFrames on a CPU device, 1 on a GPU.
+int resolve_reference_frames(const ReconstructorConfig& config, DeviceType device) {
+  if (config.reference_frames > 0) return config.reference_frames;
+  return device == DeviceType::kCpu ? kCpuReferenceFrames : 1;
+}
+
 }  // namespace
 
 Result<Reconstructor> Reconstructor::create(const ReconstructorConfig& config) {
@@ -45,6 +51,7 @@ Result<Reconstructor> Reconstructor::create(const ReconstructorConfig& config) {
   m.relocalization = RelocalizationDriver(config);
   m.recovery = LossRecovery(config);
   m.tracking_level = resolve_tracking_level(config, m.context->info().type);
+  m.reference_frames = resolve_reference_frames(config, m.context->info().type);
   const Intrinsics& k = config.intrinsics;
   const auto pixels = static_cast<std::size_t>(k.width) * k.height;
   for (gpu::Preprocessor* p : {&m.current, &m.reference}) {

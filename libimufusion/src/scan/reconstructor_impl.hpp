@@ -74,11 +74,14 @@ struct Reconstructor::Impl final : ModelAligner {
   LossRecovery recovery;                // the stretch since the last fully constrained frame
   Eigen::Isometry3d T_world_reference = Eigen::Isometry3d::Identity();  // pose of the raycast
   bool has_reference = false;
+  int reference_age = 0;         // frames tracked since the reference's raycast
+  std::size_t fused_frames = 0;  // frames fused into the model (the first frame's included)
   // The last tracked frame's seed gate moved a direction back to the prediction: the next
   // frame is gated at seed_gate_hold_sigmas.
   bool seed_gate_holding = false;
   double frame_interval = 0;  // s, from the previous frame to the one being aligned
   int tracking_level = 0;     // ReconstructorConfig::tracking_level resolved for the device
+  int reference_frames = 1;   // ReconstructorConfig::reference_frames resolved for the device
   // Without the IMU (TrackingConfig::constant_velocity_pairs): the newest frames tracked in a
   // row, oldest first, at most constant_velocity_pairs + 1.
   std::deque<StampedPose> tracked_run;
@@ -93,21 +96,24 @@ struct Reconstructor::Impl final : ModelAligner {
                        std::pair<float, float> range, const RaycastBuffers& out,
                        std::vector<KernelTiming>* timings);
   Status submit_fuse_and_reference(const Eigen::Isometry3d& T_world_camera, bool fuse,
-                                   bool with_color, FrameTimings& timings);
+                                   bool with_color, FrameTimings& timings, bool keep_reference);
   Result<std::optional<IntegrationStats>> fuse_and_update_reference(
-      const Eigen::Isometry3d& T_world_camera, bool fuse, bool with_color, FrameTimings& timings);
+      const Eigen::Isometry3d& T_world_camera, bool fuse, bool with_color, FrameTimings& timings,
+      bool keep_reference = false);
+  bool reference_serves(const Eigen::Isometry3d& T_world_camera, const DepthView& depth) const;
   LossRecovery::Frame start_frame(const DepthView& depth, FrameResult& r);
   Result<LossRecovery::Frame> track_frame(double timestamp, const DepthView& depth, FrameResult& r);
   void note_decision(const TrackingDecision& decision, const IcpResult& icp, bool was_lost,
                      const StampedPose& previous, FrameResult& r);
   Eigen::Isometry3d constant_velocity_motion(double interval) const;
   void note_motion(bool tracked, double timestamp, const Eigen::Isometry3d& T_world_camera);
-  Status fuse_and_record(const TrackingDecision& decision, double timestamp, bool with_color,
-                         FrameResult& r);
+  Status fuse_and_record(const TrackingDecision& decision, double timestamp, const DepthView& depth,
+                         bool with_color, FrameResult& r);
 
   // The alignment of a frame (reconstructor_align.cpp).
   Status pair_with_own_model(FrameTimings& timings);
   std::size_t valid_depth_pixels(const DepthView& depth) const;
+  double median_depth(const DepthView& depth) const;
   int seed_start_level(const MotionPrediction& prediction, const DepthView& depth) const;
   Result<IcpResult> align(const DepthView& depth, const Eigen::Isometry3d& T_world_seed,
                           const MotionPrediction& prediction, bool settling, FrameTimings& timings);
@@ -124,6 +130,7 @@ struct Reconstructor::Impl final : ModelAligner {
   // Everything on the host the next frames depend on, but the configuration, the tracking level
   // and the volume (reconstructor_state.cpp).
   void describe_state(StateArchive& archive);
+  Status restore_reference(const std::vector<float>& vertices, const std::vector<float>& normals);
 
   InertialNavigator* navigator_or_null() { return navigator ? &*navigator : nullptr; }
 

@@ -21,7 +21,7 @@ namespace imufusion {
 namespace {
 
 constexpr std::array<char, 8> kMagic = {'I', 'M', 'U', 'F', 'S', 'C', 'A', 'N'};
-constexpr std::uint32_t kVersion = 2;  // 2: the lens distortion in the intrinsics
+constexpr std::uint32_t kVersion = 3;  // 2: the lens distortion; 3: the reference's reuse
 constexpr std::size_t kHeaderBytes = 24;
 
 void describe_volume(StateArchive& a, gpu::TsdfVolume::Contents& c) {
@@ -66,8 +66,9 @@ Result<std::span<const std::uint8_t>> payload_of(const std::filesystem::path& pa
 
 void Reconstructor::Impl::describe_state(StateArchive& a) {
   Impl& m = *this;
-  a(m.trajectory, m.T_world_reference, m.has_reference, m.seed_gate_holding, m.frame_interval,
-    m.tracked_run, m.machine, m.pairing, m.prediction_calibration, m.relocalization, m.recovery);
+  a(m.trajectory, m.T_world_reference, m.has_reference, m.reference_age, m.fused_frames,
+    m.seed_gate_holding, m.frame_interval, m.tracked_run, m.machine, m.pairing,
+    m.prediction_calibration, m.relocalization, m.recovery);
   bool inertial = m.navigator.has_value();
   a(inertial);
   if (inertial != m.navigator.has_value()) {
@@ -77,6 +78,19 @@ void Reconstructor::Impl::describe_state(StateArchive& a) {
   if (inertial) a(*m.navigator);
 }
 
+// The reference maps saved with a scan, at the tracking level, back on the GPU with the coarser
+// levels built from them.
+Status Reconstructor::Impl::restore_reference(const std::vector<float>& vertices,
+                                              const std::vector<float>& normals) {
+  IMUFUSION_RETURN_IF_ERROR(model.vertices.upload(std::span<const float>(vertices)));
+  IMUFUSION_RETURN_IF_ERROR(model.normals.upload(std::span<const float>(normals)));
+  IMUFUSION_RETURN_IF_ERROR(fuse_seq.begin());
+  reference.record_maps_from(fuse_seq, model.vertices, model.normals, tracking_level);
+  auto t = fuse_seq.submit_and_wait();
+  if (!t) return t.error();
+  return {};
+}
+
 Status Reconstructor::save(const std::filesystem::path& path) const {
   // A writing archive only reads what describe() lists.
   Impl& m = const_cast<Impl&>(*impl_);
@@ -84,10 +98,23 @@ Status Reconstructor::save(const std::filesystem::path& path) const {
   if (!volume) return file_error(path, volume.error().code, volume.error().message);
   StateArchive a = StateArchive::writer();
   ReconstructorConfig config = m.config;
-  int level = m.tracking_level;
-  a(config, level);
+  int level = m.tracking_level, reference_frames = m.reference_frames;
+  a(config, level, reference_frames);
   m.describe_state(a);
   describe_volume(a, *volume);
+  // The reference maps as raycast (a reference kept over frames was raycast from an older model).
+  std::vector<float> vertices, normals;
+  if (m.has_reference) {
+    const Intrinsics k = m.config.intrinsics.at_level(m.tracking_level);
+    const auto floats = static_cast<std::size_t>(k.width) * k.height * 4;
+    auto v = m.model.vertices.download_as<float>(floats);
+    if (!v) return file_error(path, v.error().code, v.error().message);
+    auto n = m.model.normals.download_as<float>(floats);
+    if (!n) return file_error(path, n.error().code, n.error().message);
+    vertices = std::move(*v);
+    normals = std::move(*n);
+  }
+  a(vertices, normals);
   const std::vector<std::uint8_t>& payload = a.bytes();
   const std::uint32_t crc = crc32(payload);
   const std::uint64_t size = payload.size();
@@ -109,8 +136,8 @@ Result<Reconstructor> Reconstructor::load(const std::filesystem::path& path,
   if (!payload) return payload.error();
   StateArchive a = StateArchive::reader(*payload);
   ReconstructorConfig config;
-  int level = 0;
-  a(config, level);
+  int level = 0, reference_frames = 0;
+  a(config, level, reference_frames);
   if (!a.ok()) return file_error(path, ErrorCode::kParseError, a.error());
   config.device = device;
   if (Status valid = config.validate(); !valid.ok())
@@ -120,20 +147,33 @@ Result<Reconstructor> Reconstructor::load(const std::filesystem::path& path,
   if (!created) return file_error(path, created.error().code, created.error().message);
   Impl& m = *created->impl_;
   m.tracking_level = level;
+  m.reference_frames = reference_frames;
   gpu::TsdfVolume::Contents volume;
   m.describe_state(a);
   describe_volume(a, volume);
+  std::vector<float> vertices, normals;
+  a(vertices, normals);
   if (a.ok() && a.offset() != payload->size())
     a.fail(std::to_string(payload->size() - a.offset()) + " bytes left over after the volume");
   if (!a.ok()) return file_error(path, ErrorCode::kParseError, a.error());
   if (level < 0 || level >= config.preprocess.levels)
     return file_error(path, ErrorCode::kParseError,
                       "tracking level " + std::to_string(level) + " outside the pyramid");
+  if (reference_frames < 1)
+    return file_error(path, ErrorCode::kParseError,
+                      "reference frames " + std::to_string(reference_frames) + " below 1");
+  const Intrinsics k = config.intrinsics.at_level(level);
+  const auto floats = static_cast<std::size_t>(k.width) * k.height * 4;
+  if (m.has_reference && (vertices.size() != floats || normals.size() != floats))
+    return file_error(path, ErrorCode::kParseError,
+                      "the reference maps hold " + std::to_string(vertices.size()) + " and " +
+                          std::to_string(normals.size()) + " floats, the tracking level's " +
+                          std::to_string(k.width) + "x" + std::to_string(k.height) + " needs " +
+                          std::to_string(floats));
   if (Status restored = m.volume.restore(volume); !restored.ok())
     return file_error(path, restored.error().code, restored.error().message);
   if (m.has_reference) {
-    FrameTimings timings;
-    if (Status s = m.set_reference(m.T_world_reference, timings); !s.ok())
+    if (Status s = m.restore_reference(vertices, normals); !s.ok())
       return file_error(path, s.error().code, s.error().message);
   }
   return created;
