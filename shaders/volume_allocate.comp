@@ -22,11 +22,9 @@ void mark_visible(uint slot) {
   visible[atomicAdd(counters[VOLUME_COUNTER_VISIBLE], 1u)] = slot;  // < hash_slots entries
 }
 
-void insert(ivec3 b) {
-  if (!key_in_range(b)) {
-    atomicAdd(counters[VOLUME_COUNTER_OUT_OF_RANGE], 1u);
-    return;
-  }
+// The hash slot holding block b, inserted if new; VOLUME_EMPTY_KEY when the table had no free
+// slot within the probes. The block is then listed once (mark_visible) by the caller.
+uint insert(ivec3 b) {
   uint key = pack_key(b);
   uint slot = hash_block(b, p.hash_mask);
   for (int probe = 0; probe < VOLUME_MAX_PROBES; ++probe) {
@@ -39,19 +37,19 @@ void insert(ivec3 b) {
         uint index = atomicAdd(counters[VOLUME_COUNTER_ALLOCATED], 1u);
         values[slot] = index < p.pool_blocks ? index : VOLUME_NO_BLOCK;
         if (index < p.max_blocks) block_slots[index] = slot;
-        mark_visible(slot);
-        return;
+        return slot;
       }
     }
-    if (k == key) {
-      mark_visible(slot);
-      return;
-    }
+    if (k == key) return slot;
     slot = (slot + 1u) & p.hash_mask;
   }
-  atomicAdd(counters[VOLUME_COUNTER_TABLE_FULL], 1u);
+  return VOLUME_EMPTY_KEY;
 }
 
+// The blocks the pixel's truncation band [d - truncation, d + truncation] passes are those of
+// its samples every half block along it. Consecutive samples mostly share a block: the samples
+// are walked to the next block not yet inserted before each insertion, so that an invocation
+// runs the insertion once per distinct block (the loop's trip count bounds a SIMD group's work).
 void main() {
   uvec2 px = gl_GlobalInvocationID.xy;
   if (px.x >= p.width || px.y >= p.height) return;
@@ -65,11 +63,28 @@ void main() {
   float block_length = p.voxel_size * float(VOLUME_BLOCK_SIDE);
   int steps = int(ceil(distance(a, c) / (0.5 * block_length)));
   ivec3 last = ivec3(0x7FFFFFFF);
-  for (int i = 0; i <= steps; ++i) {
-    vec3 w = mix(a, c, float(i) / float(max(steps, 1)));
-    ivec3 b = ivec3(floor(w / block_length));
-    if (b == last) continue;
+  uint out_of_range = 0u, table_full = 0u;
+  int i = 0;
+  while (i <= steps) {
+    ivec3 b = ivec3(floor(mix(a, c, float(i) / float(max(steps, 1))) / block_length));
+    ++i;
+    while (b == last && i <= steps) {
+      b = ivec3(floor(mix(a, c, float(i) / float(max(steps, 1))) / block_length));
+      ++i;
+    }
+    if (b == last) break;
     last = b;
-    insert(b);
+    if (!key_in_range(b)) {
+      ++out_of_range;
+      continue;
+    }
+    uint slot = insert(b);
+    if (slot == VOLUME_EMPTY_KEY) {
+      ++table_full;
+      continue;
+    }
+    mark_visible(slot);
   }
+  if (out_of_range > 0u) atomicAdd(counters[VOLUME_COUNTER_OUT_OF_RANGE], out_of_range);
+  if (table_full > 0u) atomicAdd(counters[VOLUME_COUNTER_TABLE_FULL], table_full);
 }

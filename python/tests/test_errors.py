@@ -49,6 +49,11 @@ def test_config_fields_are_reachable_and_validated(vulkan_device):
     config.tracking_level = 7
     with pytest.raises(imufusion.Error, match="tracking_level"):
         config.validate()
+    config.tracking_level = 0
+    assert config.reference_frames == 0 and config.reference_motion_pixels == pytest.approx(16)
+    config.reference_frames = -1
+    with pytest.raises(imufusion.Error, match="reference_frames"):
+        config.validate()
     with pytest.raises(ValueError, match="rigid"):
         config.inertial.T_camera_imu = np.ones((4, 4))
     with pytest.raises(ValueError, match=r"\(4, 4\).*float64 array of shape \(3, 3\)"):

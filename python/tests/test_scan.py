@@ -17,6 +17,10 @@ def test_scan_tracks_every_frame_near_ground_truth(small_sequence):
     assert str(results[0].source) == "initial"
     assert all(r.source == imufusion.PoseSource.ICP for r in results[1:])
     assert all(r.fused for r in results)
+    # A model raycast after the first frames; later ones every reference_frames at most.
+    assert results[0].new_reference
+    gaps = np.diff([r.index for r in results if r.new_reference])
+    assert gaps.max() <= scanner.reference_frames
     assert all(r.icp_ran and r.icp_reliable and 1 <= r.icp_iterations <= 2 for r in results[1:])
     assert results[5].icp_quality.inliers > 1000
 

@@ -129,8 +129,8 @@ struct ReconstructorConfig {
   /// a CPU device (where the raycast is most of the frame; bench/README.md), 1 on a GPU.
   int reference_frames = 0;
   /// px at the tracking level: the image motion since the reference (its rotation plus its
-  /// translation over the frame's median depth) from which a frame raycasts again. Default 8.
-  double reference_motion_pixels = 8;
+  /// translation over the frame's median depth) from which a frame raycasts again. Default 16.
+  double reference_motion_pixels = 16;
   Eigen::Isometry3d initial_pose = Eigen::Isometry3d::Identity();  // T_world_camera of frame 0, m
 
   /// Fails naming the first setting out of range.
