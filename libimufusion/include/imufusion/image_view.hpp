@@ -2,8 +2,10 @@
 // Non-owning views of a caller's depth and colour frames: rows `stride_bytes` apart (0 = packed),
 // read in place while the call that takes them runs.
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 
 #include "imufusion/result.hpp"
 
@@ -53,6 +55,23 @@ struct DepthView {
   /// message names the actual and expected values.
   Status check(int expected_width, int expected_height) const;
 };
+
+// Inline: the host's per-frame statistics read every pixel through these.
+inline std::uint16_t DepthView::raw(int u, int v) const {
+  std::uint16_t value = 0;
+  std::memcpy(&value, row(v) + 2 * static_cast<std::size_t>(u), sizeof value);
+  if (format != DepthFormat::kDepth16) return value;
+  return (value >> 13) == 1 ? 0 : static_cast<std::uint16_t>(value & 0x1FFF);
+}
+
+inline double DepthView::metres(int u, int v) const {
+  if (format == DepthFormat::kFloatMetres) {
+    float value = 0;
+    std::memcpy(&value, row(v) + 4 * static_cast<std::size_t>(u), sizeof value);
+    return value > 0 && std::isfinite(value) ? value : 0.0;
+  }
+  return raw(u, v) * (1.0 / raw_scale());
+}
 
 /// How a colour pixel is stored: 8 bits per channel.
 enum class ColorFormat { kRgb8, kRgba8, kBgra8 };

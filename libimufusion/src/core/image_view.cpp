@@ -55,22 +55,6 @@ DepthView DepthView::depth16(const std::uint16_t* data, int width, int height,
   return {data, width, height, stride_bytes, DepthFormat::kDepth16, 1000.0, 0};
 }
 
-std::uint16_t DepthView::raw(int u, int v) const {
-  std::uint16_t value = 0;
-  std::memcpy(&value, row(v) + 2 * static_cast<std::size_t>(u), sizeof value);
-  if (format != DepthFormat::kDepth16) return value;
-  return (value >> 13) == 1 ? 0 : static_cast<std::uint16_t>(value & 0x1FFF);
-}
-
-double DepthView::metres(int u, int v) const {
-  if (format == DepthFormat::kFloatMetres) {
-    float value = 0;
-    std::memcpy(&value, row(v) + 4 * static_cast<std::size_t>(u), sizeof value);
-    return value > 0 && std::isfinite(value) ? value : 0.0;
-  }
-  return raw(u, v) * (1.0 / raw_scale());
-}
-
 Status DepthView::check(int expected_width, int expected_height) const {
   IMUFUSION_RETURN_IF_ERROR(check_layout("depth frame", data, width, height, pixel_bytes(),
                                          stride_bytes, buffer_bytes, expected_width,
