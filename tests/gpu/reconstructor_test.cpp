@@ -183,7 +183,9 @@ TEST_F(ReconstructorTest, AModelRaycastServesTheNextFramesWhileTheViewMovesLittl
       expected_count += expected ? 1 : 0;
     }
     EXPECT_EQ(summarize_scan(results).new_references, expected_count);
-    if (c.frames == 3 && c.pixels > 0) EXPECT_LT(expected_count, results.size() / 2);
+    if (c.frames == 3 && c.pixels > 0) {
+      EXPECT_LT(expected_count, results.size() / 2);
+    }
     EXPECT_LT(ate(rec.trajectory()), 0.01);
   }
 }
