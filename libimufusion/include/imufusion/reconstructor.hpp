@@ -63,8 +63,9 @@ struct ImuAidConfig {
 
 /// The search for a lost frame's pose in the model, at the gyro's rotation (IMU runs only): a
 /// distance field of the model over translations within a radius of dead reckoning's position
-/// and of the last fully constrained one, then full ICP from the best fits; an ambiguous view
-/// (another fit elsewhere) takes nothing.
+/// and of the last fully constrained one, then full ICP from the best fits. An ambiguous view
+/// (another fit elsewhere) takes nothing until the next lost frame's search puts the camera at
+/// the same correction of dead reckoning, with no reliable fit elsewhere repeated.
 struct RelocalizationConfig {
   bool enabled = true;
   int interval = 5;    // lost frames between searches

@@ -119,17 +119,15 @@ Status Reconstructor::Impl::submit_fuse_and_reference(const Eigen::Isometry3d& T
 // reference_motion_pixels since it, at the frame's median depth, and the model it shows held at
 // least reference_frames frames (each of a young model's frames changes it much).
 bool Reconstructor::Impl::reference_serves(const Eigen::Isometry3d& T_world_camera,
-                                           const DepthView& depth) const {
+                                           const DepthView& depth) {
   if (!has_reference || reference_age + 1 >= reference_frames) return false;
   const auto frames = static_cast<std::size_t>(reference_frames);
   if (fused_frames < frames + static_cast<std::size_t>(reference_age)) return false;
   const double z = median_depth(depth);
   if (z <= 0) return false;
   const Eigen::Isometry3d moved = T_world_reference.inverse() * T_world_camera;
-  const double f =
-      std::ldexp(std::max(config.intrinsics.fx, config.intrinsics.fy), -tracking_level);
-  const double pixels =
-      f * (Eigen::AngleAxisd(moved.linear()).angle() + moved.translation().norm() / z);
+  const double pixels = tracking_image_motion(Eigen::AngleAxisd(moved.linear()).angle(),
+                                              moved.translation().norm(), z);
   return pixels < config.reference_motion_pixels;
 }
 
@@ -324,6 +322,7 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthV
   const auto t0 = Clock::now();
   IMUFUSION_RETURN_IF_ERROR(m.check_frame(timestamp, depth, color));
   IMUFUSION_RETURN_IF_ERROR(m.add_imu(imu));
+  m.median_depth_of = nullptr;  // a new frame, perhaps in the last one's buffer
   FrameResult r;
   r.index = m.trajectory.size();
   r.timestamp = timestamp;

@@ -41,8 +41,10 @@ IcpReliabilityThresholds Reconstructor::Impl::reliability(const DepthView& depth
   return t;
 }
 
-// The median of the frame's valid depths (m), from every 7th pixel; 0 when none is valid.
-double Reconstructor::Impl::median_depth(const DepthView& depth) const {
+// The median of the frame's valid depths (m), from every 7th pixel; 0 when none is valid. Kept
+// for the incoming frame (track_and_fuse forgets it), whose alignment and reference both ask.
+double Reconstructor::Impl::median_depth(const DepthView& depth) {
+  if (median_depth_of != nullptr && median_depth_of == depth.data) return median_depth_value;
   std::vector<double> z;
   const auto pixels = static_cast<std::size_t>(depth.width) * depth.height;
   const auto width = static_cast<std::size_t>(depth.width);
@@ -50,23 +52,35 @@ double Reconstructor::Impl::median_depth(const DepthView& depth) const {
     const double d = depth.metres(static_cast<int>(i % width), static_cast<int>(i / width));
     if (valid_depth(d)) z.push_back(d);
   }
-  if (z.empty()) return 0;
-  std::nth_element(z.begin(), z.begin() + static_cast<std::ptrdiff_t>(z.size() / 2), z.end());
-  return z[z.size() / 2];
+  median_depth_value = 0;
+  if (!z.empty()) {
+    std::nth_element(z.begin(), z.begin() + static_cast<std::ptrdiff_t>(z.size() / 2), z.end());
+    median_depth_value = z[z.size() / 2];
+  }
+  median_depth_of = depth.data;
+  return median_depth_value;
+}
+
+// How far a motion moves the image at the tracking level (pixels): `rotation` (rad) and
+// `translation` (m) seen at depth z (m).
+double Reconstructor::Impl::tracking_image_motion(double rotation, double translation,
+                                                  double z) const {
+  const double f =
+      std::ldexp(std::max(config.intrinsics.fx, config.intrinsics.fy), -tracking_level);
+  return f * (rotation + translation / z);
 }
 
 // The coarsest pyramid level ICP needs from an inertial seed (ReconstructorConfig::
 // imu.seed_reach_pixels): the finest level at which 3 sigma of the seed's image motion, at
 // the frame's median depth, is within the reach.
 int Reconstructor::Impl::seed_start_level(const MotionPrediction& prediction,
-                                          const DepthView& depth) const {
+                                          const DepthView& depth) {
   const int coarsest = config.preprocess.levels - 1 - tracking_level;  // ICP's levels
   const double reach = config.imu.seed_reach_pixels;
   const double z = median_depth(depth);
   if (z <= 0) return coarsest;
-  const double f =
-      std::ldexp(std::max(config.intrinsics.fx, config.intrinsics.fy), -tracking_level);
-  const double motion = 3 * f * (prediction.rotation_sigma + prediction.translation_sigma / z);
+  const double motion =
+      3 * tracking_image_motion(prediction.rotation_sigma, prediction.translation_sigma, z);
   int level = 0;
   while (level < coarsest && motion > reach * std::ldexp(1.0, level)) ++level;
   return level;

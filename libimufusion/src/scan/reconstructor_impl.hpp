@@ -76,6 +76,9 @@ struct Reconstructor::Impl final : ModelAligner {
   bool has_reference = false;
   int reference_age = 0;         // frames tracked since the reference's raycast
   std::size_t fused_frames = 0;  // frames fused into the model (the first frame's included)
+  // The incoming frame's median depth (m), once median_depth computed it for that depth image.
+  const void* median_depth_of = nullptr;
+  double median_depth_value = 0;
   // The last tracked frame's seed gate moved a direction back to the prediction: the next
   // frame is gated at seed_gate_hold_sigmas.
   bool seed_gate_holding = false;
@@ -100,7 +103,7 @@ struct Reconstructor::Impl final : ModelAligner {
   Result<std::optional<IntegrationStats>> fuse_and_update_reference(
       const Eigen::Isometry3d& T_world_camera, bool fuse, bool with_color, FrameTimings& timings,
       bool keep_reference = false);
-  bool reference_serves(const Eigen::Isometry3d& T_world_camera, const DepthView& depth) const;
+  bool reference_serves(const Eigen::Isometry3d& T_world_camera, const DepthView& depth);
   LossRecovery::Frame start_frame(const DepthView& depth, FrameResult& r);
   Result<LossRecovery::Frame> track_frame(double timestamp, const DepthView& depth, FrameResult& r);
   void note_decision(const TrackingDecision& decision, const IcpResult& icp, bool was_lost,
@@ -113,8 +116,9 @@ struct Reconstructor::Impl final : ModelAligner {
   // The alignment of a frame (reconstructor_align.cpp).
   Status pair_with_own_model(FrameTimings& timings);
   std::size_t valid_depth_pixels(const DepthView& depth) const;
-  double median_depth(const DepthView& depth) const;
-  int seed_start_level(const MotionPrediction& prediction, const DepthView& depth) const;
+  double median_depth(const DepthView& depth);
+  double tracking_image_motion(double rotation, double translation, double z) const;
+  int seed_start_level(const MotionPrediction& prediction, const DepthView& depth);
   Result<IcpResult> align(const DepthView& depth, const Eigen::Isometry3d& T_world_seed,
                           const MotionPrediction& prediction, bool settling, FrameTimings& timings);
 

@@ -21,8 +21,15 @@ namespace imufusion {
 namespace {
 
 constexpr std::array<char, 8> kMagic = {'I', 'M', 'U', 'F', 'S', 'C', 'A', 'N'};
-constexpr std::uint32_t kVersion = 3;  // 2: the lens distortion; 3: the reference's reuse
+constexpr std::uint32_t kVersion = 4;  // 2: the lens distortion; 3: the reference's reuse;
+                                       // 4: relocalization's confirmation of an ambiguous fit
 constexpr std::size_t kHeaderBytes = 24;
+
+// Floats in each of the reference maps saved with a scan: four per pixel of the tracking level.
+std::size_t reference_map_floats(const ReconstructorConfig& config, int tracking_level) {
+  const Intrinsics k = config.intrinsics.at_level(tracking_level);
+  return static_cast<std::size_t>(k.width) * static_cast<std::size_t>(k.height) * 4;
+}
 
 void describe_volume(StateArchive& a, gpu::TsdfVolume::Contents& c) {
   a(c.hash_slots, c.allocated, c.frame_stamp, c.counters, c.slots, c.keys, c.values, c.stamps,
@@ -105,8 +112,7 @@ Status Reconstructor::save(const std::filesystem::path& path) const {
   // The reference maps as raycast (a reference kept over frames was raycast from an older model).
   std::vector<float> vertices, normals;
   if (m.has_reference) {
-    const Intrinsics k = m.config.intrinsics.at_level(m.tracking_level);
-    const auto floats = static_cast<std::size_t>(k.width) * k.height * 4;
+    const std::size_t floats = reference_map_floats(m.config, m.tracking_level);
     auto v = m.model.vertices.download_as<float>(floats);
     if (!v) return file_error(path, v.error().code, v.error().message);
     auto n = m.model.normals.download_as<float>(floats);
@@ -163,7 +169,7 @@ Result<Reconstructor> Reconstructor::load(const std::filesystem::path& path,
     return file_error(path, ErrorCode::kParseError,
                       "reference frames " + std::to_string(reference_frames) + " below 1");
   const Intrinsics k = config.intrinsics.at_level(level);
-  const auto floats = static_cast<std::size_t>(k.width) * k.height * 4;
+  const std::size_t floats = reference_map_floats(config, level);
   if (m.has_reference && (vertices.size() != floats || normals.size() != floats))
     return file_error(path, ErrorCode::kParseError,
                       "the reference maps hold " + std::to_string(vertices.size()) + " and " +

@@ -19,6 +19,9 @@ RelocalizationDriver::RelocalizationDriver(const ReconstructorConfig& config)
 void RelocalizationDriver::reset() {
   field_current_ = false;
   lost_frames_since_attempt_ = 0;
+  ambiguous_correction_.reset();
+  ambiguous_alternatives_.clear();
+  confirm_next_ = false;
 }
 
 Result<RelocalizationDriver::Outcome> RelocalizationDriver::on_frame(const Frame& frame,
@@ -50,16 +53,22 @@ bool RelocalizationDriver::long_loss(const Frame& frame) const {
          drift_radius(frame.timestamp - frame.constrained_time) > icp_reach_;
 }
 
-// Whether this frame searches for its pose: every relocalization.interval lost frames, and
-// whenever ICP from the seed would end a long loss.
+// Whether this frame searches for its pose: every relocalization.interval lost frames, the
+// lost frame after a search whose best fit waits for confirmation, and whenever ICP from the
+// seed would end a long loss.
 bool RelocalizationDriver::should_search(const Frame& frame, bool long_loss) {
   if (!frame.lost) {
     lost_frames_since_attempt_ = 0;
+    ambiguous_correction_.reset();
+    ambiguous_alternatives_.clear();
+    confirm_next_ = false;
     return false;
   }
   if (!config_.enabled || !frame.rotation_from_imu) return false;
   if (frame.icp_reliable) return long_loss;
-  if (++lost_frames_since_attempt_ < config_.interval) return false;
+  const bool confirm = confirm_next_;
+  confirm_next_ = false;
+  if (++lost_frames_since_attempt_ < config_.interval && !confirm) return false;
   lost_frames_since_attempt_ = 0;
   return true;
 }
@@ -116,8 +125,9 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
   std::optional<ModelAligner::Placement> best;
   IcpReliabilityThresholds plausible = model.reliability(depth);
   plausible.max_condition = std::numeric_limits<double>::infinity();
-  std::vector<Eigen::Vector3d> fits;  // where the frame fits but for the condition number
-  FrameTimings candidate_timings;     // kept out of the frame's ICP and raycast times
+  std::vector<Eigen::Vector3d> fits;       // where the frame fits but for the condition number
+  std::vector<Eigen::Vector3d> placed_at;  // where it fits in every direction (reliable)
+  FrameTimings candidate_timings;          // kept out of the frame's ICP and raycast times
   for (const TranslationCandidate& c : candidates) {
     if (c.near_fraction < plausible.min_inlier_fraction) continue;
     Eigen::Isometry3d T_candidate = T_estimate;
@@ -129,14 +139,45 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
     if (icp.quality.iterations > 0 && judge_icp(icp.quality, plausible, nullptr))
       fits.push_back(placed->T_world_camera.translation());
     if (!icp.reliable() || !icp.quality.converged) continue;
+    placed_at.push_back(placed->T_world_camera.translation());
     if (!best || icp.quality.residual_per_weight < best->icp.quality.residual_per_weight)
       best = std::move(*placed);
   }
   const double apart = 2 * config_.cell;
-  if (best && std::any_of(fits.begin(), fits.end(), [&](const Eigen::Vector3d& p) {
-        return (p - best->T_world_camera.translation()).norm() > apart;
-      }))
-    best.reset();
+  const auto elsewhere = [&](const Eigen::Vector3d& p) {
+    return (p - best->T_world_camera.translation()).norm() > apart;
+  };
+  if (best && std::any_of(fits.begin(), fits.end(), elsewhere)) {
+    // An ambiguous view is accepted when the last search of this loss, from another view, put
+    // its best fit at the same correction of the estimate and no reliable fit where this one has
+    // another: the coincidences of a view (a wall's slide, a stretch of the model not yet
+    // scanned) change from view to view; the camera's place and a repeated structure do not. A
+    // fit that is only ill-conditioned barely moves along its slide from where the search
+    // started it, so its place says nothing either way.
+    const Eigen::Vector3d correction =
+        best->T_world_camera.translation() - T_estimate.translation();
+    std::vector<Eigen::Vector3d> others;  // the reliable fits elsewhere, as corrections
+    for (const Eigen::Vector3d& p : placed_at)
+      if (elsewhere(p)) others.push_back(p - T_estimate.translation());
+    const auto near = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+      return (a - b).norm() <= apart;
+    };
+    const bool confirmed =
+        ambiguous_correction_ && near(correction, *ambiguous_correction_) &&
+        std::none_of(others.begin(), others.end(), [&](const Eigen::Vector3d& a) {
+          return std::any_of(ambiguous_alternatives_.begin(), ambiguous_alternatives_.end(),
+                             [&](const Eigen::Vector3d& b) { return near(a, b); });
+        });
+    // The first ambiguous search of a run has the next lost frame confirm it; a confirmation
+    // that failed waits for the next regular search.
+    confirm_next_ = !confirmed && !ambiguous_correction_;
+    ambiguous_correction_ = correction;
+    ambiguous_alternatives_ = std::move(others);
+    if (!confirmed) best.reset();
+  } else {
+    ambiguous_correction_.reset();
+    ambiguous_alternatives_.clear();
+  }
   timings.kernels.insert(timings.kernels.end(), candidate_timings.kernels.begin(),
                          candidate_timings.kernels.end());
   timings.relocalize_ms = ms_since(t0);
@@ -144,7 +185,8 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
 }
 
 void RelocalizationDriver::describe(StateArchive& archive) {
-  archive(field_current_, lost_frames_since_attempt_);
+  archive(field_current_, lost_frames_since_attempt_, ambiguous_correction_,
+          ambiguous_alternatives_, confirm_next_);
   if (archive.reading()) field_ = {};
   if (field_current_) archive(field_);
 }

@@ -4,6 +4,7 @@
 // field of the model, and full ICP from its best candidates.
 
 #include <optional>
+#include <vector>
 
 #include "core/relocalizer.hpp"
 #include "core/state_archive.hpp"
@@ -35,7 +36,8 @@ class RelocalizationDriver {
   explicit RelocalizationDriver(const ReconstructorConfig& config);
 
   /// Counts the lost frames and, where this one searches (every relocalization.interval lost
-  /// frames, and whenever ICP from the seed would end a long loss), runs the search with
+  /// frames, the next lost frame after a search whose best fit waits for confirmation, and
+  /// whenever ICP from the seed would end a long loss), runs the search with
   /// `model`'s current frame, `depth`. The search's raycasts and ICP add their kernels to
   /// `timings`, their wall time to relocalize_ms only.
   Result<Outcome> on_frame(const Frame& frame, const DepthView& depth, ModelAligner& model,
@@ -61,6 +63,11 @@ class RelocalizationDriver {
   SurfaceDistanceField field_;
   bool field_current_ = false;
   int lost_frames_since_attempt_ = 0;
+  // World, m: where the last search of this loss put the frame relative to its estimate, when
+  // its best fit was not the only one, and its other reliable fits.
+  std::optional<Eigen::Vector3d> ambiguous_correction_;
+  std::vector<Eigen::Vector3d> ambiguous_alternatives_;
+  bool confirm_next_ = false;  // the next lost frame searches to confirm it
 };
 
 }  // namespace imufusion

@@ -1,0 +1,173 @@
+// The relocalization driver's decisions on a search whose best fit is not the only one: it waits
+// for the next search, from another view, to put the frame at the same correction of its
+// estimate. The model is a floor plane, the alignments a scripted stand-in for the GPU's.
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <optional>
+#include <vector>
+
+#include "mesh_test_fixtures.hpp"
+#include "scan/relocalization.hpp"
+
+namespace imufusion {
+namespace {
+
+// A frame's fits, in the order the search asks for them: where each candidate's ICP puts the
+// frame (relative to its estimate) and whether it is reliable, a fit but for the condition
+// number, or no fit.
+enum class Fit { kReliable, kIllConditioned, kNone };
+struct ScriptedFit {
+  Fit fit = Fit::kNone;
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();  // world, m, from the frame's estimate
+};
+
+class ScriptedModel : public ModelAligner {
+ public:
+  ScriptedModel()
+      : volume_(test::make_sdf_volume([](const Eigen::Vector3d& p) { return p.z() - 2.0; },
+                                      Eigen::Vector3i(-10, -10, 22), Eigen::Vector3i(10, 10, 27))) {
+  }
+
+  std::vector<ScriptedFit> fits;  // this search's candidates, in order
+  Eigen::Isometry3d estimate;     // the frame's estimate
+  int searches = 0;               // searches started (frame_points calls)
+
+  Status load_frame(const DepthView&, FrameTimings&) override { return {}; }
+  Status set_reference(const Eigen::Isometry3d&, FrameTimings&) override { return {}; }
+  Result<Placement> place(const DepthView&, const Eigen::Isometry3d&, FrameTimings&) override {
+    const ScriptedFit scripted = next_ < fits.size() ? fits[next_] : ScriptedFit{};
+    ++next_;
+    Placement p;
+    p.T_world_camera = estimate;
+    p.T_world_camera.translation() += scripted.offset;
+    IcpQuality& q = p.icp.quality;
+    q.iterations = 3;
+    q.converged = true;
+    q.inliers = 5000;
+    q.inlier_fraction = scripted.fit == Fit::kNone ? 0.1 : 0.8;
+    q.pixel_fraction = q.inlier_fraction;
+    q.condition = scripted.fit == Fit::kIllConditioned ? 2000 : 100;
+    q.residual_per_weight = 1e-6;
+    p.icp.verdict =
+        scripted.fit == Fit::kReliable ? IcpVerdict::kReliable : IcpVerdict::kUnreliable;
+    return p;
+  }
+  IcpReliabilityThresholds reliability(const DepthView&) const override { return {}; }
+  // A patch of the floor 2 m below the camera (camera frame: z forward).
+  Result<std::vector<Eigen::Vector3d>> frame_points(int) override {
+    ++searches;
+    next_ = 0;
+    std::vector<Eigen::Vector3d> points;
+    for (int i = -5; i <= 5; ++i)
+      for (int j = -5; j <= 5; ++j) points.emplace_back(0.1 * i, 0.1 * j, 2.0);
+    return points;
+  }
+  Result<HostVolume> model_snapshot() const override { return volume_; }
+
+ private:
+  HostVolume volume_;
+  std::size_t next_ = 0;
+};
+
+class RelocalizationDriverTest : public ::testing::Test {
+ protected:
+  RelocalizationDriverTest() {
+    config.relocalization.interval = 5;
+    driver = RelocalizationDriver(config);
+  }
+
+  // Lost frame k (30 fps) at an estimate that moves 1 cm a frame; the search's outcome.
+  std::optional<ModelAligner::Placement> lost_frame(int k) {
+    RelocalizationDriver::Frame f;
+    f.timestamp = k / 30.0;
+    f.lost = true;
+    f.rotation_from_imu = true;
+    f.T_world_estimate.translation() = Eigen::Vector3d(0.01 * k, 0, 0);
+    f.lost_at = f.T_world_estimate.translation();
+    model.estimate = f.T_world_estimate;
+    FrameTimings timings;
+    auto out = driver.on_frame(f, DepthView{}, model, timings);
+    EXPECT_TRUE(out.ok());
+    return out.ok() ? out->found : std::nullopt;
+  }
+
+  // Whether a search placed lost frame k at its estimate moved by `correction`.
+  bool placed_at_correction(const std::optional<ModelAligner::Placement>& found, int k) const {
+    const Eigen::Vector3d expected = Eigen::Vector3d(0.01 * k, 0, 0) + correction;
+    return found && (found->T_world_camera.translation() - expected).norm() < 1e-9;
+  }
+
+  ReconstructorConfig config;
+  RelocalizationDriver driver;
+  ScriptedModel model;
+  const Eigen::Vector3d correction{0.2, -0.1, 0};  // where the camera is, from its estimate
+  const Eigen::Vector3d elsewhere{-0.3, 0.4, 0};   // another fit, more than 2 cells away
+  const Eigen::Vector3d slid{0.0, 0.4, 0};         // that fit in the next view, 0.3 m on
+};
+
+TEST_F(RelocalizationDriverTest, AnUnambiguousFitEndsTheLossAtOnce) {
+  model.fits = {{Fit::kReliable, correction}, {Fit::kNone, elsewhere}};
+  for (int k = 1; k < 5; ++k) EXPECT_FALSE(lost_frame(k));
+  EXPECT_EQ(model.searches, 0);
+  EXPECT_TRUE(placed_at_correction(lost_frame(5), 5));
+}
+
+TEST_F(RelocalizationDriverTest, AnAmbiguousFitWaitsForTheNextFrameToConfirmIt) {
+  model.fits = {{Fit::kReliable, correction}, {Fit::kIllConditioned, elsewhere}};
+  for (int k = 1; k <= 5; ++k) EXPECT_FALSE(lost_frame(k));
+  EXPECT_EQ(model.searches, 1);
+  // The next lost frame searches at once: its best fit needs the same correction, while the
+  // other fit slid on.
+  model.fits = {{Fit::kReliable, correction}, {Fit::kIllConditioned, slid}};
+  EXPECT_TRUE(placed_at_correction(lost_frame(6), 6));
+  EXPECT_EQ(model.searches, 2);
+}
+
+TEST_F(RelocalizationDriverTest, AnAmbiguousFitAtAnotherCorrectionIsNotAccepted) {
+  model.fits = {{Fit::kReliable, correction}, {Fit::kIllConditioned, elsewhere}};
+  for (int k = 1; k <= 5; ++k) EXPECT_FALSE(lost_frame(k));
+  // The confirming search's best fit lies 0.3 m from the first one's correction: neither ends
+  // the loss, and the searches go back to every fifth lost frame.
+  const Eigen::Vector3d moved = correction + Eigen::Vector3d(0, 0.3, 0);
+  model.fits = {{Fit::kReliable, moved}, {Fit::kIllConditioned, slid}};
+  EXPECT_FALSE(lost_frame(6));
+  for (int k = 7; k <= 10; ++k) EXPECT_FALSE(lost_frame(k));
+  EXPECT_EQ(model.searches, 2);
+  // The next regular search agrees with the confirming one.
+  model.fits = {{Fit::kReliable, moved}, {Fit::kIllConditioned, elsewhere}};
+  EXPECT_TRUE(lost_frame(11));
+  EXPECT_EQ(model.searches, 3);
+}
+
+TEST_F(RelocalizationDriverTest, AReliableFitThatRepeatsElsewhereKeepsTheViewAmbiguous) {
+  // A second place fits every view in every direction (a repeated structure): no search ends
+  // the loss.
+  model.fits = {{Fit::kReliable, correction}, {Fit::kReliable, elsewhere}};
+  for (int k = 1; k <= 30; ++k) EXPECT_FALSE(lost_frame(k));
+  EXPECT_EQ(model.searches, 6);  // frames 5 and 6 (its confirmation), then every fifth
+}
+
+TEST_F(RelocalizationDriverTest, AnIllConditionedFitThatStaysPutDoesNotBlockTheConfirmation) {
+  // A slide's fit stays near where the search started it, in every view: no evidence against
+  // the best fit, which the next frame confirms.
+  model.fits = {{Fit::kReliable, correction}, {Fit::kIllConditioned, elsewhere}};
+  for (int k = 1; k <= 5; ++k) EXPECT_FALSE(lost_frame(k));
+  EXPECT_TRUE(lost_frame(6));
+}
+
+TEST_F(RelocalizationDriverTest, AFrameThatIsNotLostForgetsTheCorrectionWaitingForConfirmation) {
+  model.fits = {{Fit::kReliable, correction}, {Fit::kIllConditioned, elsewhere}};
+  for (int k = 1; k <= 5; ++k) EXPECT_FALSE(lost_frame(k));
+  RelocalizationDriver::Frame tracked;
+  tracked.timestamp = 6 / 30.0;
+  FrameTimings timings;
+  ASSERT_TRUE(driver.on_frame(tracked, DepthView{}, model, timings).ok());
+  // A new loss: its first search is ambiguous again and ends nothing.
+  for (int k = 7; k <= 11; ++k) EXPECT_FALSE(lost_frame(k));
+  EXPECT_EQ(model.searches, 2);
+}
+
+}  // namespace
+}  // namespace imufusion
