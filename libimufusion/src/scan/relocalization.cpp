@@ -19,6 +19,11 @@ RelocalizationDriver::RelocalizationDriver(const ReconstructorConfig& config)
 void RelocalizationDriver::reset() {
   field_current_ = false;
   lost_frames_since_attempt_ = 0;
+  forget_ambiguity();
+}
+
+// A loss ended or the scan restarted: nothing waits for confirmation.
+void RelocalizationDriver::forget_ambiguity() {
   ambiguous_correction_.reset();
   ambiguous_alternatives_.clear();
   confirm_next_ = false;
@@ -59,9 +64,7 @@ bool RelocalizationDriver::long_loss(const Frame& frame) const {
 bool RelocalizationDriver::should_search(const Frame& frame, bool long_loss) {
   if (!frame.lost) {
     lost_frames_since_attempt_ = 0;
-    ambiguous_correction_.reset();
-    ambiguous_alternatives_.clear();
-    confirm_next_ = false;
+    forget_ambiguity();
     return false;
   }
   if (!config_.enabled || !frame.rotation_from_imu) return false;

@@ -51,6 +51,7 @@ class RelocalizationDriver {
   double drift_radius(double lost_seconds) const;
   bool long_loss(const Frame& frame) const;
   bool should_search(const Frame& frame, bool long_loss);
+  void forget_ambiguity();
   Status build_field(ModelAligner& model, const Eigen::Vector3d& anchor);
   Result<std::optional<ModelAligner::Placement>> search(const Frame& frame, const DepthView& depth,
                                                         ModelAligner& model, FrameTimings& timings);
