@@ -120,6 +120,7 @@ ReconstructorConfig make_config(const ScanOptions& opt, const SequenceReader* re
   while (config.volume.hash_slots < 4ull * opt.block_capacity) config.volume.hash_slots *= 2;
   config.device.selector = opt.device;
   if (opt.icp_iterations) config.icp.max_total_iterations = *opt.icp_iterations;
+  if (opt.photometric_weight) config.icp.photometric.weight = *opt.photometric_weight;
   config.tracking.recovery_frames = opt.recovery_frames;
   if (source != nullptr && source->T_camera_imu()) {
     config.inertial.T_camera_imu = *source->T_camera_imu();

@@ -30,6 +30,7 @@ struct ScanOptions {
   bool no_color = false;
   bool estimate_imu_rotation = false;
   std::optional<int> icp_iterations;
+  std::optional<double> photometric_weight;  // IcpPhotometricConfig::weight when given
   std::optional<TranslationModel> translation;
   int recovery_frames = TrackingConfig{}.recovery_frames;
   SensorPreset sensor = SensorPreset::kKinect;
@@ -56,7 +57,7 @@ struct ScanOptions {
 // Writes the usage text to `out`; returns `code`.
 inline int scan_usage(std::ostream& out, int code) {
   out << "usage: imufusion-scan [SEQUENCE] [--out DIR] [--sensor kinect|phone-tof] [--no-imu]\n"
-         "                      [--icp-iterations N]\n"
+         "                      [--icp-iterations N] [--photometric-weight W]\n"
          "                      [--voxel-size M] [--frames N] [--poses FILE] [--device "
          "NAME|INDEX]\n"
          "                      [--list-devices] [--translation "
@@ -81,6 +82,10 @@ inline int scan_usage(std::ostream& out, int code) {
          "  --icp-iterations N       Gauss-Newton steps per frame at most (default "
       << kPresetIcpIterationsWithImu << " with IMU, " << kPresetIcpIterationsWithoutImu
       << " without)\n"
+         "  --photometric-weight W   the colour's weight in ICP against the depth's, each by\n"
+         "                           its own residual (default "
+      << IcpPhotometricConfig{}.weight
+      << "; 0: depth alone)\n"
          "  --poses FILE             fuse with known camera-to-world poses (TUM format), no "
          "tracking\n"
          "  --frames N               scan at most N frames (counted after --frame-step)\n"
@@ -224,6 +229,10 @@ inline int parse_scan_value(const std::string& a, const std::string& v, ScanOpti
     const auto m = parse_number(v);
     if (!m || *m < 0.001 || *m > 0.5) return bad("metres in [0.001, 0.5]");
     opt.voxel_size = static_cast<float>(*m);
+  } else if (a == "--photometric-weight") {
+    const auto w = parse_number(v);
+    if (!w || *w < 0 || *w > 100) return bad("a weight in [0, 100]");
+    opt.photometric_weight = *w;
   } else if (a == "--translation") {
     opt.translation = parse_translation_model(v);
     if (!opt.translation) return bad("none, constant-velocity or accelerometer");

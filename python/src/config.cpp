@@ -35,6 +35,15 @@ void bind_parts(py::module_& m) {
       .def_readwrite("a", &DepthNoiseModel::a, "metres (default 0.0012)")
       .def_readwrite("b", &DepthNoiseModel::b, "1/metre (default 0.0019)")
       .def_readwrite("z0", &DepthNoiseModel::z0, "metres (default 0.4)");
+  py::class_<IcpPhotometricConfig>(m, "IcpPhotometricConfig",
+                                   "ICP's photometric term on frames with colour")
+      .def(py::init<>())
+      .def_readwrite("weight", &IcpPhotometricConfig::weight,
+                     "against the depth term, each by its own residual (default 1; 0: off)")
+      .def_readwrite("huber_sigmas", &IcpPhotometricConfig::huber_sigmas,
+                     "Huber threshold in RMS residuals (default 1.345)")
+      .def_readwrite("initial_huber", &IcpPhotometricConfig::initial_huber,
+                     "Huber threshold before a residual is known, intensity (default 0.1)");
   py::class_<IcpConfig>(m, "IcpConfig")
       .def_readwrite("max_total_iterations", &IcpConfig::max_total_iterations,
                      "Gauss-Newton steps per frame at most while tracking")
@@ -42,7 +51,8 @@ void bind_parts(py::module_& m) {
                      "steps allowed per pyramid level, level 0 (full size) first")
       .def_readwrite("max_distance", &IcpConfig::max_distance, "m per level")
       .def_readwrite("max_normal_angle_deg", &IcpConfig::max_normal_angle_deg, "deg per level")
-      .def_readwrite("depth_noise", &IcpConfig::depth_noise, "the sensor's DepthNoiseModel");
+      .def_readwrite("depth_noise", &IcpConfig::depth_noise, "the sensor's DepthNoiseModel")
+      .def_readwrite("photometric", &IcpConfig::photometric, "the IcpPhotometricConfig");
   py::class_<VolumeConfig>(m, "VolumeConfig")
       .def_readwrite("voxel_size", &VolumeConfig::voxel_size, "metres (default 0.01)")
       .def_readwrite("truncation_voxels", &VolumeConfig::truncation_voxels, "default 4")

@@ -54,6 +54,12 @@ def test_config_fields_are_reachable_and_validated(vulkan_device):
     config.reference_frames = -1
     with pytest.raises(imufusion.Error, match="reference_frames"):
         config.validate()
+    config.reference_frames = 0
+    assert config.icp.photometric.weight == pytest.approx(1)
+    config.icp.photometric.weight = -1
+    with pytest.raises(imufusion.Error, match="photometric.weight"):
+        config.validate()
+    config.icp.photometric.weight = 0
     with pytest.raises(ValueError, match="rigid"):
         config.inertial.T_camera_imu = np.ones((4, 4))
     with pytest.raises(ValueError, match=r"\(4, 4\).*float64 array of shape \(3, 3\)"):

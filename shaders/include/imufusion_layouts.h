@@ -90,6 +90,33 @@ struct IcpAssociateParams {
   float max_noise_cos;
 };
 
+// icp_photometric: the photometric rows of ICP at one pyramid level, in icp_associate's row
+// format. Each current pixel with a vertex v is moved by T_ref_cur (p = R v + t) and projected
+// into the reference at subpixel (u, v). Where the reference's vertices at the 2x2 cell around it
+// and at their 4-neighbours are valid and within max_distance of p in depth, the row linearizes
+// I_ref(pi(p)) - I_cur: a = (p x g, g) with g the reference intensity's bilinear gradient times the
+// projection's Jacobian, b = I_cur - I_ref(u, v). Intensities are the Rec. 601 luma of the RGBA8
+// colours in [0, 1]; the current one is the mean over the 2^color_shift square of full-resolution
+// colour pixels the level pixel covers. w = 1, Huber-weighted beyond `huber`; w = 0 without a
+// vertex, -1 where rejected.
+struct IcpPhotometricParams {
+  uint width;       // current level size
+  uint height;
+  uint ref_width;   // reference level size (its vertices and colours)
+  uint ref_height;
+  float fx;         // reference intrinsics at this level, pixels
+  float fy;
+  float cx;
+  float cy;
+  float r00, r01, r02, tx;  // T_ref_cur, row-major 3x4, metres
+  float r10, r11, r12, ty;
+  float r20, r21, r22, tz;
+  float max_distance;  // metres
+  uint color_width;    // the current colour's width (full resolution)
+  uint color_shift;    // log2 of the level's downsampling from the current colour
+  float huber;         // intensity
+};
+
 // icp_reduce: the first stage of a deterministic two-stage reduction over the association rows.
 // Workgroup g sums rows [g * rows_per_group, (g + 1) * rows_per_group) into ICP_PARTIAL_STRIDE
 // floats: the 21 upper-triangle entries of sum w a a^T (row-major), the 6 of sum w a b, sum w b^2,

@@ -344,5 +344,60 @@ TEST_F(FarWallTest, FarNoisyDepthDoesNotLoseAnAlignedScan) {
   EXPECT_LT(ate->stats.rmse, 0.01);
 }
 
+// A flat wall leaves ICP's depth term free in its plane: the two translations along it and the
+// rotation about its normal. A checkered wall's colour constrains them (IcpPhotometricConfig).
+class ColourWallTest : public test::GpuTest {
+ protected:
+  // The second frame's result after the first, of a checkered wall 1 m ahead; the camera moves
+  // 12 mm and -8 mm along the wall and turns 0.4 deg about its normal between them.
+  FrameResult second_frame(double photometric_weight) {
+    synth::Scene scene;
+    synth::Plane wall;
+    wall.normal = Eigen::Vector3d(0, 0, 1);
+    wall.offset = 1.0;
+    wall.material.color = Eigen::Vector3f(0.15f, 0.2f, 0.25f);
+    wall.material.color2 = Eigen::Vector3f(0.9f, 0.85f, 0.8f);
+    wall.material.checker_size = 0.05;
+    scene.planes.push_back(wall);
+    ReconstructorConfig c;
+    c.intrinsics = synth::default_intrinsics(160, 120);
+    c.imu.enabled = false;
+    c.tracking_level = 0;
+    c.icp.photometric.weight = photometric_weight;
+    c.device.selector = context_->info().name;
+    c.volume.block_capacity = 1u << 13;
+    c.volume.hash_slots = 1u << 15;
+    auto rec = Reconstructor::create(c);
+    EXPECT_TRUE(rec.ok()) << rec.error().describe();
+    if (!rec.ok()) return {};
+    moved_.linear() = Eigen::AngleAxisd(0.4 * M_PI / 180, Eigen::Vector3d::UnitZ()).matrix();
+    moved_.translation() = Eigen::Vector3d(0.012, -0.008, 0);
+    FrameResult result;
+    int i = 0;
+    for (const Eigen::Isometry3d& pose : {Eigen::Isometry3d::Identity(), moved_}) {
+      const DepthImage depth = synth::render_depth(scene, pose, c.intrinsics, {}, 3 + i);
+      const ColorImage color = synth::render_color(scene, pose, c.intrinsics);
+      auto r = rec->track_and_fuse(0.1 * i++, depth, &color, {});
+      EXPECT_TRUE(r.ok()) << r.error().describe();
+      if (r.ok()) result = *r;
+    }
+    return result;
+  }
+  Eigen::Isometry3d moved_ = Eigen::Isometry3d::Identity();
+};
+
+TEST_F(ColourWallTest, TheColourTracksWhatTheDepthLeavesFree) {
+  const FrameResult r = second_frame(1.0);
+  EXPECT_EQ(r.status, TrackingStatus::kTracking) << r.icp.reason;
+  EXPECT_LT((r.T_world_camera.translation() - moved_.translation()).norm(), 0.002);
+  EXPECT_LT(test::rotation_deg(r.T_world_camera, moved_), 0.1);
+}
+
+TEST_F(ColourWallTest, TheDepthAloneCannotTrackTheWall) {
+  const FrameResult r = second_frame(0.0);
+  EXPECT_NE(r.status, TrackingStatus::kTracking);
+  EXPECT_GT(r.icp.quality.condition, IcpReliabilityThresholds{}.max_condition);
+}
+
 }  // namespace
 }  // namespace imufusion

@@ -132,6 +132,92 @@ TEST(IcpStep, TruncatedSolveMovesOnlyAlongWellConditionedDirections) {
   EXPECT_LT((P * P - P).norm(), 1e-9);
 }
 
+void add_row(NormalEquations& eq, const Eigen::Matrix<double, 6, 1>& a, double b) {
+  eq.AtA += a * a.transpose();
+  eq.Atb += a * b;
+  eq.btb += b * b;
+  eq.inliers++;
+  eq.weight_sum += 1;
+}
+
+// Rows a . x = b of a wall's depth term (x = alpha, beta, gamma, tx, ty, tz): the normal's
+// direction (tz) and the two tilts, nothing along the wall; `noise` (m) added to b alternately.
+NormalEquations wall_equations(const Eigen::Matrix<double, 6, 1>& x, double noise) {
+  NormalEquations eq;
+  for (int i = 0; i < 300; ++i) {
+    Eigen::Matrix<double, 6, 1> a = Eigen::Matrix<double, 6, 1>::Zero();
+    a(0) = std::sin(0.1 * i);  // the tilts' lever arms over the wall
+    a(1) = std::cos(0.13 * i);
+    a(5) = 1;
+    add_row(eq, a, a.dot(x) + (i % 2 == 0 ? noise : -noise));
+  }
+  return eq;
+}
+
+// Rows of a photometric term that constrain all six directions: gradients (intensity per unit of
+// x) of random directions, `noise` (intensity) added to b alternately.
+NormalEquations colour_equations(const Eigen::Matrix<double, 6, 1>& x, double noise) {
+  NormalEquations eq;
+  std::srand(3);
+  for (int i = 0; i < 300; ++i) {
+    const Eigen::Matrix<double, 6, 1> a = 20 * Eigen::Matrix<double, 6, 1>::Random();
+    add_row(eq, a, a.dot(x) + (i % 2 == 0 ? noise : -noise));
+  }
+  return eq;
+}
+
+TEST(IcpPhotometric, EachTermIsWeighedByItsOwnResidual) {
+  Eigen::Matrix<double, 6, 1> x = Eigen::Matrix<double, 6, 1>::Zero();
+  NormalEquations eq = wall_equations(x, 0.002);             // 4e-6 m^2 per weight
+  const NormalEquations colour = colour_equations(x, 0.05);  // 2.5e-3 per weight
+  const NormalEquations depth = eq;
+  add_photometric(eq, colour, 2.0);
+  const double lambda = 2.0 * 4e-6 / 2.5e-3;
+  EXPECT_LT((eq.photometric_AtA - lambda * colour.AtA).norm(), 1e-9 * colour.AtA.norm());
+  EXPECT_LT((eq.photometric_Atb - lambda * colour.Atb).norm(), 1e-9 * colour.Atb.norm() + 1e-15);
+  EXPECT_EQ(eq.photometric_pairs, colour.inliers);
+  // The depth's own sums are left as they were: the residual and the pairing stay the depth's.
+  EXPECT_EQ(eq.AtA, depth.AtA);
+  EXPECT_EQ(eq.btb, depth.btb);
+  EXPECT_EQ(eq.weight_sum, depth.weight_sum);
+  // No weight, or a term without residual, adds nothing.
+  NormalEquations unchanged = depth;
+  add_photometric(unchanged, colour, 0.0);
+  add_photometric(unchanged, NormalEquations{}, 1.0);
+  EXPECT_TRUE(unchanged.photometric_AtA.isZero());
+  EXPECT_EQ(unchanged.photometric_pairs, 0u);
+}
+
+TEST(IcpPhotometric, TheColourConstrainsWhatTheWallLeavesFree) {
+  Eigen::Matrix<double, 6, 1> x;
+  x << 0.002, -0.001, 0.004, 0.01, -0.006, 0.003;
+  NormalEquations eq = wall_equations(x, 0.001);
+  const IcpStep depth_only = solve_icp_step(eq, 562.3);
+  EXPECT_EQ(depth_only.constrained_directions, 3);
+  EXPECT_FALSE(std::isfinite(depth_only.condition) && depth_only.condition < 1e6);
+  add_photometric(eq, colour_equations(x, 0.01), 1.0);
+  const IcpStep step = solve_icp_step(eq, 562.3);
+  ASSERT_TRUE(step.solvable);
+  EXPECT_EQ(step.constrained_directions, 6);
+  EXPECT_LT(step.condition, 562.3);
+  EXPECT_LT((step.x - x).norm(), 1e-3 * x.norm() + 2e-4);
+  // The residual is the depth's at the solution: its noise, 1e-3^2 per row.
+  EXPECT_NEAR(step.residual / eq.weight_sum, 1e-6, 2e-7);
+}
+
+TEST(IcpConfigValidate, RejectsAPhotometricWeightOrThresholdOutOfRange) {
+  IcpConfig c;
+  c.photometric.weight = -1;
+  EXPECT_FALSE(c.validate(3).ok());
+  c.photometric.weight = 0;
+  EXPECT_TRUE(c.validate(3).ok());
+  c.photometric.huber_sigmas = 0;
+  EXPECT_FALSE(c.validate(3).ok());
+  c.photometric.huber_sigmas = 1.345;
+  c.photometric.initial_huber = std::nan("");
+  EXPECT_FALSE(c.validate(3).ok());
+}
+
 TEST(IcpIncrement, IsARotationEvenForLargeAngles) {
   Eigen::Matrix<double, 6, 1> x;
   x << 0.5, -0.3, 0.8, 1, 2, 3;

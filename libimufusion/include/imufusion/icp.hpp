@@ -59,6 +59,15 @@ struct NormalEquations {
   std::uint64_t valid_pixels = 0;
   double valid_information = 0;
   double inlier_information = 0;
+  /// A photometric term (add_photometric), in the depth's units: the solve adds it to AtA and
+  /// Atb; the residual, the pairing figures and the weights stay the depth's alone.
+  Eigen::Matrix<double, 6, 6> photometric_AtA = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 1> photometric_Atb = Eigen::Matrix<double, 6, 1>::Zero();
+  std::uint64_t photometric_pairs = 0;
+
+  /// The system the step solves: the depth's and the photometric term's together.
+  Eigen::Matrix<double, 6, 6> system_AtA() const { return AtA + photometric_AtA; }
+  Eigen::Matrix<double, 6, 1> system_Atb() const { return Atb + photometric_Atb; }
 
   /// The paired share of the valid pixels, each counted by its information (0 when none).
   double inlier_fraction() const {
@@ -69,6 +78,12 @@ struct NormalEquations {
     return valid_pixels > 0 ? double(inliers) / double(valid_pixels) : 0;
   }
 };
+
+/// Adds the photometric equations `photo` (intensity residuals, IcpPhotometricConfig) to the
+/// depth's `eq` as its photometric term, each term weighed by the inverse of its own mean squared
+/// residual at the pose both were evaluated at: photo scaled by weight * (btb / weight_sum) of
+/// `eq` over that of `photo`. Nothing is added when either has no residual.
+void add_photometric(NormalEquations& eq, const NormalEquations& photo, double weight);
 
 /// Thresholds of the reliable / unreliable decision, measured with bench/icp_calibration on 1080
 /// synthetic pairs (room, wall and fast scenes, 12 seeds, three kinds of start; recall of good
@@ -94,6 +109,19 @@ struct IcpReliabilityThresholds {
   /// its mean sigma(z)^2 `noise_variance` (m^2, DepthNoiseModel::mean_variance), the most that
   /// sigma_cur^2 + sigma_model^2 reaches (a far scene is noisier, not misaligned).
   IcpReliabilityThresholds widened_to_noise(double noise_variance) const;
+};
+
+/// The photometric term of ICP (add_photometric): at ICP's finest level, where the frame and the
+/// model both have colour, each current pixel's intensity (Rec. 601 luma in [0, 1]) against the
+/// model's raycast colour where the pixel projects, linearized through the colour's gradient.
+struct IcpPhotometricConfig {
+  /// Its weight against the depth term, each term first weighed by the inverse of its own mean
+  /// squared residual (1: equal information); 0: depth alone. Default 1.
+  double weight = 1;
+  /// The Huber threshold in units of the last photometric RMS residual (default 1.345: 95 %
+  /// efficiency on Gaussian noise), and before any residual was measured (intensity, 0.1).
+  double huber_sigmas = 1.345;
+  double initial_huber = 0.1;
 };
 
 struct IcpConfig {
@@ -157,6 +185,8 @@ struct IcpConfig {
   /// r / sum(w) at most twice its) is reliable when its move from the initial pose has chi^2
   /// (6 dof, combined covariance of seed and ICP) below this. Default 22.46 (99.9 %); 0: off.
   double seed_agreement_chi2 = 22.46;
+  /// The photometric term (the Reconstructor, on frames with colour).
+  IcpPhotometricConfig photometric;
 
   Status validate(int levels) const;
 };
@@ -170,7 +200,7 @@ struct IcpQuality {
   double inlier_fraction = 0;      // inlier_information / valid_information (NormalEquations)
   double pixel_fraction = 0;       // inliers / valid_pixels
   double weight_sum = 0;           // sum(w)
-  double condition = 0;            // kappa = sigma_max / sigma_min of AtA (inf when singular)
+  double condition = 0;            // kappa = sigma_max / sigma_min of system_AtA (inf: singular)
   int iterations = 0;              // Gauss-Newton steps run, all levels
   int coarse_iterations = 0;       // of those, the steps run below full resolution (levels 1..)
   bool converged = false;          // the finest level's update fell below the thresholds

@@ -82,9 +82,9 @@ double depth_information_scale(const NormalEquations& eq, const IcpStep& depth_o
 // the fixed translation stay the depth's own.
 void add_seed_prior(IcpStep& step, const NormalEquations& eq, double scale, const Vector6d& info,
                     const Vector6d& to_seed) {
-  Eigen::Matrix<double, 6, 6> H = eq.AtA * scale;
+  Eigen::Matrix<double, 6, 6> H = eq.system_AtA() * scale;
   H.diagonal() += info;
-  const Vector6d x = H.ldlt().solve(eq.Atb * scale + info.cwiseProduct(to_seed));
+  const Vector6d x = H.ldlt().solve(eq.system_Atb() * scale + info.cwiseProduct(to_seed));
   if (!x.allFinite()) return;
   step.x = x;
   step.residual = residual_at(eq, x);
@@ -94,7 +94,7 @@ void add_seed_prior(IcpStep& step, const NormalEquations& eq, double scale, cons
 // (scale AtA)^-1; infinity when AtA is singular.
 double seed_chi2(const NormalEquations& eq, double scale, const Vector6d& info,
                  const Vector6d& moved) {
-  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> depth((eq.AtA * scale).eval());
+  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> depth((eq.system_AtA() * scale).eval());
   if (depth.info() != Eigen::Success || !(depth.vectorD().minCoeff() > 0))
     return std::numeric_limits<double>::infinity();
   Eigen::Matrix<double, 6, 6> S = depth.solve(Eigen::Matrix<double, 6, 6>::Identity());
@@ -230,20 +230,41 @@ Status IcpConfig::validate(int levels) const {
   if (!(seed_agreement_chi2 >= 0 && std::isfinite(seed_agreement_chi2)))
     return bad("seed_agreement_chi2 must be finite and non-negative, got " +
                format(seed_agreement_chi2));
+  if (!(photometric.weight >= 0 && std::isfinite(photometric.weight)))
+    return bad("photometric.weight must be finite and non-negative, got " +
+               format(photometric.weight));
+  if (!(photometric.huber_sigmas > 0 && std::isfinite(photometric.huber_sigmas)))
+    return bad("photometric.huber_sigmas must be positive, got " +
+               format(photometric.huber_sigmas));
+  if (!(photometric.initial_huber > 0 && std::isfinite(photometric.initial_huber)))
+    return bad("photometric.initial_huber must be positive, got " +
+               format(photometric.initial_huber));
   if (!(seed_gate_hold_sigmas > 0 && seed_gate_hold_sigmas <= seed_gate_sigmas))
     return bad("seed_gate_hold_sigmas must be in (0, seed_gate_sigmas], got " +
                format(seed_gate_hold_sigmas));
   return {};
 }
 
+void add_photometric(NormalEquations& eq, const NormalEquations& photo, double weight) {
+  if (!(weight > 0) || !(eq.btb > 0) || !(eq.weight_sum > 0) || !(photo.btb > 0) ||
+      !(photo.weight_sum > 0))
+    return;
+  const double lambda = weight * (eq.btb / eq.weight_sum) / (photo.btb / photo.weight_sum);
+  eq.photometric_AtA += lambda * photo.AtA;
+  eq.photometric_Atb += lambda * photo.Atb;
+  eq.photometric_pairs += photo.inliers;
+}
+
 IcpStep solve_icp_step(const NormalEquations& eq, double max_condition) {
   IcpStep step;
-  if (eq.inliers < 6 || !eq.AtA.allFinite() || !eq.Atb.allFinite() || !std::isfinite(eq.btb)) {
+  const Eigen::Matrix<double, 6, 6> AtA = eq.system_AtA();
+  const Eigen::Matrix<double, 6, 1> Atb = eq.system_Atb();
+  if (eq.inliers < 6 || !AtA.allFinite() || !Atb.allFinite() || !std::isfinite(eq.btb)) {
     step.condition = std::numeric_limits<double>::infinity();
     return step;
   }
   const Eigen::JacobiSVD<Eigen::Matrix<double, 6, 6>> svd(
-      eq.AtA, Eigen::ComputeFullU | Eigen::ComputeFullV);
+      AtA, Eigen::ComputeFullU | Eigen::ComputeFullV);
   step.directions = svd.matrixU();
   // Element by element: GCC 12 reports the vectorized whole-vector copy as maybe-uninitialized.
   for (int i = 0; i < 6; ++i) step.singular_values(i) = svd.singularValues()(i);
@@ -256,14 +277,14 @@ IcpStep solve_icp_step(const NormalEquations& eq, double max_condition) {
     const Eigen::Matrix<double, 6, 6>& U = svd.matrixU();
     for (int i = 0; i < 6; ++i) {
       if (!(s(i) > 0) || s(0) / s(i) > max_condition) break;
-      step.x += U.col(i) * (U.col(i).dot(eq.Atb) / s(i));
+      step.x += U.col(i) * (U.col(i).dot(Atb) / s(i));
       ++step.constrained_directions;
     }
     std::vector<Eigen::Matrix<double, 6, 1>> left_out;
     for (int i = step.constrained_directions; i < 6; ++i) left_out.push_back(U.col(i));
     step.fixed_translation = fixed_translation_without(left_out);
   } else {
-    step.x = svd.solve(eq.Atb);
+    step.x = svd.solve(Atb);
     step.constrained_directions = 6;
     step.fixed_translation.setIdentity();
   }

@@ -14,6 +14,19 @@
 
 namespace imufusion::gpu {
 
+/// The colours of ICP's photometric term (IcpPhotometricConfig): the current frame's at full
+/// resolution (`current_width` wide) and the reference's at the level ICP's level 0 runs at, both
+/// RGBA8. Without both, ICP runs on depth alone.
+struct PhotometricMaps {
+  const Buffer* current = nullptr;
+  int current_width = 0;
+  const Buffer* reference = nullptr;
+  IcpPhotometricConfig config;
+  /// The RMS photometric residual of the last evaluation (intensity), which scales the next one's
+  /// Huber threshold; read and updated when given, 0 before any.
+  double* sigma = nullptr;
+};
+
 /// The maps one side of an ICP pair provides at one pyramid level.
 struct IcpMaps {
   const Buffer* vertices = nullptr;
@@ -39,16 +52,27 @@ class IcpKernels {
               float max_distance, float min_normal_cos, int level);
   /// Dispatches record() adds.
   static constexpr std::uint32_t kDispatches = 2;
+  /// Dispatches record() and record_photometric() add together.
+  static constexpr std::uint32_t kPhotometricDispatches = 4;
+  /// Records the photometric rows of `current` (its colours at 2^level times its resolution)
+  /// against `reference` and their partial reduction, with the Huber threshold `huber`.
+  void record_photometric(CommandSequence& seq, const IcpMaps& current, const IcpMaps& reference,
+                          const PhotometricMaps& colors, float huber,
+                          const Intrinsics& ref_intrinsics, const Eigen::Isometry3d& T_ref_cur,
+                          float max_distance, int level);
   /// Adds the partial sums of the last run (host, double).
   Result<NormalEquations> read_equations() const;
+  /// Adds the partial sums of the last photometric run.
+  Result<NormalEquations> read_photometric() const;
 
   /// The association rows of the last run (two vec4 per pixel), for tests.
   const Buffer& rows() const { return rows_; }
 
  private:
-  ComputePipeline associate_, reduce_;
-  Buffer rows_, partials_;
-  std::uint32_t groups_ = 0;  // partial sums written by the last run
+  ComputePipeline associate_, reduce_, photometric_;
+  Buffer rows_, partials_, photo_rows_, photo_partials_;
+  std::uint32_t groups_ = 0;        // partial sums written by the last run
+  std::uint32_t photo_groups_ = 0;  // by the last photometric run
   DepthNoiseModel noise_;
   NormalGate gate_;
 };
@@ -60,7 +84,7 @@ class GpuNormalEquationSource : public NormalEquationSource {
   /// ICP's level 0 is the pyramids' `first_level` (the tracking resolution).
   GpuNormalEquationSource(IcpKernels& kernels, CommandSequence& seq, const Preprocessor& current,
                           const Preprocessor& reference, std::vector<KernelTiming>* timings,
-                          int first_level = 0);
+                          int first_level = 0, const PhotometricMaps& colors = {});
   int levels() const override { return current_.config().levels - first_level_; }
   Result<NormalEquations> evaluate(int level, const Eigen::Isometry3d& T_ref_cur,
                                    float max_distance, float min_normal_cos) override;
@@ -72,6 +96,7 @@ class GpuNormalEquationSource : public NormalEquationSource {
   const Preprocessor& reference_;
   std::vector<KernelTiming>* timings_;
   int first_level_ = 0;
+  PhotometricMaps colors_;
 };
 
 }  // namespace imufusion::gpu

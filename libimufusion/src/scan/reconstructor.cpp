@@ -43,6 +43,7 @@ Status Reconstructor::Impl::preprocess(const DepthView& depth, const ColorView* 
   // The colour is read by fusion, a later submission.
   if (rgb != nullptr)
     IMUFUSION_RETURN_IF_ERROR(gpu::upload_rgba(*rgb, color, rgba, &current.undistortion()));
+  frame_has_color = rgb != nullptr;
   IMUFUSION_RETURN_IF_ERROR(current.submit(preprocess_seq, depth, tracking_level));
   timings.preprocess_ms += ms_since(t0);
   return {};
@@ -97,6 +98,7 @@ Status Reconstructor::Impl::submit_fuse_and_reference(const Eigen::Isometry3d& T
                                      model.shaded, model.colors);
   if (recorded.ok() && !keep_reference)
     reference.record_maps_from(fuse_seq, model.vertices, model.normals, tracking_level);
+  if (!keep_reference) reference_has_color = recorded.ok();
   auto t = fuse_seq.submit_and_wait();  // ends the recording also after a failed record
   IMUFUSION_RETURN_IF_ERROR(recorded);
   if (!t) return t.error();
@@ -442,6 +444,8 @@ Status Reconstructor::reset() {
   if (m.navigator) m.navigator->reset();
   m.trajectory.clear();
   m.has_reference = false;
+  m.reference_has_color = false;
+  m.photometric_sigma = 0;
   m.reference_age = 0;
   m.fused_frames = 0;
   m.seed_gate_holding = false;

@@ -150,8 +150,17 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthView& depth,
     return c;
   };
   if (settling) icp = settling_budget(icp);
+  // The photometric term where the frame and the reference both have colour.
+  gpu::PhotometricMaps colors;
+  if (frame_has_color && reference_has_color) {
+    colors.current = &color;
+    colors.current_width = config.intrinsics.width;
+    colors.reference = &model.colors;
+    colors.config = icp.photometric;
+    colors.sigma = &photometric_sigma;
+  }
   gpu::GpuNormalEquationSource source(icp_kernels, icp_seq, current, reference, &timings.kernels,
-                                      tracking_level);
+                                      tracking_level, colors);
   const Eigen::Isometry3d T_ref_seed = T_world_reference.inverse() * T_world_seed;
   auto result = run_icp(source, icp, T_ref_seed);
   // A tracked frame that the per-frame budget left unconverged and unreliable is given the
@@ -162,6 +171,16 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthView& depth,
       !result->quality.converged && retry.max_total_iterations > icp.max_total_iterations) {
     const int spent = result->quality.iterations;
     result = run_icp(source, retry, T_ref_seed);
+    if (result) result->quality.iterations += spent;
+  }
+  // The depth decides: an alignment the colour pulled off what the depth supports is run again
+  // on the depth alone, from the same seed and with the settling budget.
+  if (result && !result->reliable() && !result->partial() && colors.current != nullptr &&
+      colors.config.weight > 0) {
+    const int spent = result->quality.iterations;
+    gpu::GpuNormalEquationSource depth_only(icp_kernels, icp_seq, current, reference,
+                                            &timings.kernels, tracking_level);
+    result = run_icp(depth_only, settling ? icp : retry, T_ref_seed);
     if (result) result->quality.iterations += spent;
   }
   timings.icp_ms += ms_since(t0);

@@ -67,7 +67,7 @@ Result<Reconstructor> Reconstructor::create(const ReconstructorConfig& config) {
                                                               m.reference.maps_dispatch_count());
   if (!fuse_seq) return fuse_seq.error();
   m.fuse_seq = std::move(*fuse_seq);
-  auto icp_seq = gpu::CommandSequence::create(m.context, gpu::IcpKernels::kDispatches);
+  auto icp_seq = gpu::CommandSequence::create(m.context, gpu::IcpKernels::kPhotometricDispatches);
   if (!icp_seq) return icp_seq.error();
   m.icp_seq = std::move(*icp_seq);
   auto kernels = gpu::IcpKernels::create(m.context, pixels, config.preprocess.workgroup_x,

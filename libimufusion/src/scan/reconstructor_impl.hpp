@@ -61,6 +61,9 @@ struct Reconstructor::Impl final : ModelAligner {
   gpu::IcpKernels icp_kernels;
   gpu::TsdfVolume volume;
   gpu::Buffer color;
+  bool frame_has_color = false;      // the incoming frame came with a colour image
+  bool reference_has_color = false;  // model.colors holds the reference's raycast colours
+  double photometric_sigma = 0;      // gpu::PhotometricMaps::sigma, kept from frame to frame
   std::vector<std::uint32_t> rgba;
   RaycastBuffers model;
   MeshChangeTracker mesh_changes;  // what extract_mesh_changes() reported so far
@@ -134,7 +137,8 @@ struct Reconstructor::Impl final : ModelAligner {
   // Everything on the host the next frames depend on, but the configuration, the tracking level
   // and the volume (reconstructor_state.cpp).
   void describe_state(StateArchive& archive);
-  Status restore_reference(const std::vector<float>& vertices, const std::vector<float>& normals);
+  Status restore_reference(const std::vector<float>& vertices, const std::vector<float>& normals,
+                           const std::vector<std::uint32_t>& colors);
 
   InertialNavigator* navigator_or_null() { return navigator ? &*navigator : nullptr; }
 

@@ -21,8 +21,9 @@ namespace imufusion {
 namespace {
 
 constexpr std::array<char, 8> kMagic = {'I', 'M', 'U', 'F', 'S', 'C', 'A', 'N'};
-constexpr std::uint32_t kVersion = 4;  // 2: the lens distortion; 3: the reference's reuse;
-                                       // 4: relocalization's confirmation of an ambiguous fit
+constexpr std::uint32_t kVersion = 5;  // 2: the lens distortion; 3: the reference's reuse;
+                                       // 4: relocalization's confirmation of an ambiguous fit;
+                                       // 5: ICP's photometric term, the reference's colours
 constexpr std::size_t kHeaderBytes = 24;
 
 // Floats in each of the reference maps saved with a scan: four per pixel of the tracking level.
@@ -75,7 +76,7 @@ void Reconstructor::Impl::describe_state(StateArchive& a) {
   Impl& m = *this;
   a(m.trajectory, m.T_world_reference, m.has_reference, m.reference_age, m.fused_frames,
     m.seed_gate_holding, m.frame_interval, m.tracked_run, m.machine, m.pairing,
-    m.prediction_calibration, m.relocalization, m.recovery);
+    m.prediction_calibration, m.relocalization, m.recovery, m.photometric_sigma);
   bool inertial = m.navigator.has_value();
   a(inertial);
   if (inertial != m.navigator.has_value()) {
@@ -88,9 +89,13 @@ void Reconstructor::Impl::describe_state(StateArchive& a) {
 // The reference maps saved with a scan, at the tracking level, back on the GPU with the coarser
 // levels built from them.
 Status Reconstructor::Impl::restore_reference(const std::vector<float>& vertices,
-                                              const std::vector<float>& normals) {
+                                              const std::vector<float>& normals,
+                                              const std::vector<std::uint32_t>& colors) {
   IMUFUSION_RETURN_IF_ERROR(model.vertices.upload(std::span<const float>(vertices)));
   IMUFUSION_RETURN_IF_ERROR(model.normals.upload(std::span<const float>(normals)));
+  reference_has_color = !colors.empty();
+  if (reference_has_color)
+    IMUFUSION_RETURN_IF_ERROR(model.colors.upload(std::span<const std::uint32_t>(colors)));
   IMUFUSION_RETURN_IF_ERROR(fuse_seq.begin());
   reference.record_maps_from(fuse_seq, model.vertices, model.normals, tracking_level);
   auto t = fuse_seq.submit_and_wait();
@@ -111,6 +116,7 @@ Status Reconstructor::save(const std::filesystem::path& path) const {
   describe_volume(a, *volume);
   // The reference maps as raycast (a reference kept over frames was raycast from an older model).
   std::vector<float> vertices, normals;
+  std::vector<std::uint32_t> colors;  // RGBA8; empty when the raycast's colours are not kept
   if (m.has_reference) {
     const std::size_t floats = reference_map_floats(m.config, m.tracking_level);
     auto v = m.model.vertices.download_as<float>(floats);
@@ -119,8 +125,13 @@ Status Reconstructor::save(const std::filesystem::path& path) const {
     if (!n) return file_error(path, n.error().code, n.error().message);
     vertices = std::move(*v);
     normals = std::move(*n);
+    if (m.reference_has_color) {
+      auto c = m.model.colors.download_as<std::uint32_t>(floats / 4);
+      if (!c) return file_error(path, c.error().code, c.error().message);
+      colors = std::move(*c);
+    }
   }
-  a(vertices, normals);
+  a(vertices, normals, colors);
   const std::vector<std::uint8_t>& payload = a.bytes();
   const std::uint32_t crc = crc32(payload);
   const std::uint64_t size = payload.size();
@@ -158,7 +169,8 @@ Result<Reconstructor> Reconstructor::load(const std::filesystem::path& path,
   m.describe_state(a);
   describe_volume(a, volume);
   std::vector<float> vertices, normals;
-  a(vertices, normals);
+  std::vector<std::uint32_t> colors;
+  a(vertices, normals, colors);
   if (a.ok() && a.offset() != payload->size())
     a.fail(std::to_string(payload->size() - a.offset()) + " bytes left over after the volume");
   if (!a.ok()) return file_error(path, ErrorCode::kParseError, a.error());
@@ -176,10 +188,14 @@ Result<Reconstructor> Reconstructor::load(const std::filesystem::path& path,
                           std::to_string(normals.size()) + " floats, the tracking level's " +
                           std::to_string(k.width) + "x" + std::to_string(k.height) + " needs " +
                           std::to_string(floats));
+  if (!colors.empty() && colors.size() != floats / 4)
+    return file_error(path, ErrorCode::kParseError,
+                      "the reference colours hold " + std::to_string(colors.size()) +
+                          " pixels, the tracking level has " + std::to_string(floats / 4));
   if (Status restored = m.volume.restore(volume); !restored.ok())
     return file_error(path, restored.error().code, restored.error().message);
   if (m.has_reference) {
-    if (Status s = m.restore_reference(vertices, normals); !s.ok())
+    if (Status s = m.restore_reference(vertices, normals, colors); !s.ok())
       return file_error(path, s.error().code, s.error().message);
   }
   return created;
