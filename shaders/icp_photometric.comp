@@ -18,16 +18,6 @@ void reject(uint i, float marker) {
   rows[2u * i + 1u] = vec4(0.0, 0.0, 0.0, marker);
 }
 
-float ref_intensity(int x, int y) {
-  return dot(unpackUnorm4x8(ref_colors[uint(y) * p.ref_width + uint(x)]).rgb, kLuma);
-}
-
-// The reference pixel (x, y) has a surface point within max_distance of pt.
-bool ref_valid(int x, int y, vec3 pt) {
-  vec4 q = ref_vertices[uint(y) * p.ref_width + uint(x)];
-  return q.w > 0.0 && abs(q.z - pt.z) <= p.max_distance;
-}
-
 void main() {
   uvec2 px = gl_GlobalInvocationID.xy;
   if (px.x >= p.width || px.y >= p.height) return;
@@ -51,12 +41,19 @@ void main() {
     reject(i, -1.0);
     return;
   }
-  for (int c = 0; c < 4; ++c) {
-    int x = x0 + (c & 1), y = y0 + (c >> 1);
-    if (!ref_valid(x, y, pt) || !ref_valid(x - 1, y, pt) || !ref_valid(x + 1, y, pt) ||
-        !ref_valid(x, y - 1, pt) || !ref_valid(x, y + 1, pt)) {
-      reject(i, -1.0);
-      return;
+  // The 4x4 block around the cell without its corners: the cell's pixels and their
+  // 4-neighbours, each with a surface point within max_distance of p in depth.
+  float nearby[4][4];
+  for (int dy = 0; dy < 4; ++dy) {
+    for (int dx = 0; dx < 4; ++dx) {
+      if ((dx == 0 || dx == 3) && (dy == 0 || dy == 3)) continue;
+      uint j = uint(y0 - 1 + dy) * p.ref_width + uint(x0 - 1 + dx);
+      vec4 q = ref_vertices[j];
+      if (q.w <= 0.0 || abs(q.z - pt.z) > p.max_distance) {
+        reject(i, -1.0);
+        return;
+      }
+      nearby[dy][dx] = dot(unpackUnorm4x8(ref_colors[j]).rgb, kLuma);
     }
   }
   // The intensity and its central-difference gradient at the cell's corners, interpolated.
@@ -64,12 +61,10 @@ void main() {
   float value = 0.0;
   vec2 gradient = vec2(0.0);
   for (int c = 0; c < 4; ++c) {
-    int x = x0 + (c & 1), y = y0 + (c >> 1);
+    int x = 1 + (c & 1), y = 1 + (c >> 1);
     float s = ((c & 1) == 1 ? fu : 1.0 - fu) * ((c >> 1) == 1 ? fw : 1.0 - fw);
-    value += s * ref_intensity(x, y);
-    gradient += s * 0.5 *
-                vec2(ref_intensity(x + 1, y) - ref_intensity(x - 1, y),
-                     ref_intensity(x, y + 1) - ref_intensity(x, y - 1));
+    value += s * nearby[y][x];
+    gradient += s * 0.5 * vec2(nearby[y][x + 1] - nearby[y][x - 1], nearby[y + 1][x] - nearby[y - 1][x]);
   }
   // The current intensity: the mean over the colour pixels this level pixel covers.
   uint side = 1u << p.color_shift;
