@@ -39,7 +39,7 @@ void bind_parts(py::module_& m) {
                                    "ICP's photometric term on frames with colour")
       .def(py::init<>())
       .def_readwrite("weight", &IcpPhotometricConfig::weight,
-                     "against the depth term, each by its own residual (default 1; 0: off)")
+                     "against the depth term, each by its own residual (default 0: off)")
       .def_readwrite("huber_sigmas", &IcpPhotometricConfig::huber_sigmas,
                      "Huber threshold in RMS residuals (default 1.345)")
       .def_readwrite("initial_huber", &IcpPhotometricConfig::initial_huber,

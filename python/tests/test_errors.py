@@ -55,7 +55,7 @@ def test_config_fields_are_reachable_and_validated(vulkan_device):
     with pytest.raises(imufusion.Error, match="reference_frames"):
         config.validate()
     config.reference_frames = 0
-    assert config.icp.photometric.weight == pytest.approx(1)
+    assert config.icp.photometric.weight == 0
     config.icp.photometric.weight = -1
     with pytest.raises(imufusion.Error, match="photometric.weight"):
         config.validate()

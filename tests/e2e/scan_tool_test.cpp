@@ -245,16 +245,13 @@ TEST_F(ScanTool, WallStretchIsReportedAsLostAndNotFused) {
 // The paper's claim, beyond it: with the IMU the scan survives the wall. The camera turns back
 // to the room after seconds of dead reckoning, decimetres off; relocalization finds it on the
 // model, tracking resumes for every frame after the episode, and the lost stretch is
-// re-estimated so that the whole trajectory stays within 3 cm. On depth alone
-// (--photometric-weight 0): the colour's term holds dead reckoning within centimetres on this
-// checkered wall, and the loss machinery is what is tested here.
+// re-estimated so that the whole trajectory stays within 3 cm.
 TEST_F(ScanTool, WallScanWithTheImuRecoversOntoTheModel) {
   const fs::path seq = synthesize(scratch_.path(), "wall_long", synth::SceneKind::kWall, 330, 23);
   const synth::CameraMotion motion(synth::SceneKind::kWall, 23, synth::SynthConfig{}.start_time);
   const double episode_end = synth::SynthConfig{}.start_time + motion.episode_end();
   const fs::path out = path("wall_imu");
-  const std::string depth_only = " --photometric-weight 0";
-  const auto run = scan(seq.string() + " --out " + out.string() + " --quiet" + depth_only);
+  const auto run = scan(seq.string() + " --out " + out.string() + " --quiet");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const auto rows = read_csv(out / "frames.csv");
   ASSERT_EQ(rows.size(), 330u);
@@ -295,7 +292,7 @@ TEST_F(ScanTool, WallScanWithTheImuRecoversOntoTheModel) {
   const auto cut = static_cast<std::size_t>(first_recovering - rows.begin()) + 2;
   const fs::path cut_out = path("wall_imu_cut");
   const auto cut_run = scan(seq.string() + " --out " + cut_out.string() + " --quiet --frames " +
-                            std::to_string(cut) + depth_only);
+                            std::to_string(cut));
   ASSERT_EQ(cut_run.exit_code, 0) << cut_run.err;
   const auto cut_rows = read_csv(cut_out / "frames.csv");
   ASSERT_EQ(cut_rows.size(), cut);
@@ -323,13 +320,11 @@ TEST_F(ScanTool, WallScanWithTheImuRecoversOntoTheModel) {
 // and the recovery places those frames backward. The frames placed show the drift before the
 // move and none after it: with the move recorded, the lost frames before them are corrected by
 // that drift (6.6 cm off at worst where dead reckoning was more than 15 cm off; with the moves
-// not recorded, scan_claims --partial-move-sigma 0, the scan's ATE doubles). On depth alone, as
-// the test above.
+// not recorded, scan_claims --partial-move-sigma 0, the scan's ATE doubles).
 TEST_F(ScanTool, ALostStretchIsCorrectedByTheDriftAPartialMoveFoundAtItsEnd) {
   const fs::path seq = synthesize(scratch_.path(), "wall_move", synth::SceneKind::kWall, 240, 301);
   const fs::path out = path("wall_move_scan");
-  const auto run =
-      scan(seq.string() + " --out " + out.string() + " --quiet --photometric-weight 0");
+  const auto run = scan(seq.string() + " --out " + out.string() + " --quiet");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const auto rows = read_csv(out / "frames.csv");
   const auto estimate = read_trajectory(out / "trajectory.txt");

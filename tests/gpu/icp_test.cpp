@@ -13,6 +13,7 @@
 
 #include "gpu/icp_kernels.hpp"
 #include "gpu/preprocessor.hpp"
+#include "gpu/rgba.hpp"
 #include "gpu_test_env.hpp"
 #include "imufusion/reconstructor.hpp"
 #include "imufusion/synth.hpp"
@@ -270,6 +271,65 @@ TEST_F(GpuTest, AFlatWallIsFlaggedUnreliable) {
   ASSERT_TRUE(result.ok());
   EXPECT_GT(result->quality.condition, 1e3);
   EXPECT_FALSE(result->reliable());
+}
+
+// The photometric term's rows (icp_photometric): against a checkered wall, whose depth leaves the
+// two translations along it and the rotation about its normal free, ICP with the colour finds the
+// camera's motion in all six directions; on depth alone the motion along the wall is not seen.
+TEST_F(GpuTest, TheColourFindsTheMotionAlongACheckeredWall) {
+  synth::Scene scene;
+  synth::Plane wall;
+  wall.normal = Eigen::Vector3d(0, 0, 1);
+  wall.offset = 1.0;
+  wall.material.color = Eigen::Vector3f(0.15f, 0.2f, 0.25f);
+  wall.material.color2 = Eigen::Vector3f(0.9f, 0.85f, 0.8f);
+  wall.material.checker_size = 0.05;
+  scene.planes.push_back(wall);
+  const Intrinsics k = synth::default_intrinsics(160, 120);
+  const Eigen::Isometry3d moved = motion(0.4, {0, 0, 1}, {0.012, -0.008, 0});
+  const PreprocessConfig config;
+  auto ref = gpu::Preprocessor::create(context_, config, k);
+  auto cur = gpu::Preprocessor::create(context_, config, k);
+  ASSERT_TRUE(ref.ok() && cur.ok());
+  auto seq = gpu::CommandSequence::create(context_, ref->dispatch_count());
+  ASSERT_TRUE(seq.ok());
+  std::vector<gpu::Buffer> colors;
+  std::vector<std::uint32_t> scratch;
+  for (auto [pre, pose] :
+       {std::pair{&*ref, Eigen::Isometry3d::Identity()}, std::pair{&*cur, moved}}) {
+    ASSERT_TRUE(pre->upload(synth::render_depth(scene, pose, k, {}, 5)).ok());
+    ASSERT_TRUE(seq->begin().ok());
+    pre->record(*seq);
+    ASSERT_TRUE(seq->submit_and_wait().ok());
+    auto buffer = gpu::Buffer::create(context_, static_cast<std::size_t>(k.width) * k.height * 4);
+    ASSERT_TRUE(buffer.ok());
+    ASSERT_TRUE(gpu::upload_rgba(synth::render_color(scene, pose, k), *buffer, scratch).ok());
+    colors.push_back(std::move(*buffer));
+  }
+  auto kernels = gpu::IcpKernels::create(context_, static_cast<std::size_t>(k.width) * k.height, 16,
+                                         16, DepthNoiseModel{});
+  ASSERT_TRUE(kernels.ok()) << kernels.error().describe();
+  auto icp_seq = gpu::CommandSequence::create(context_, gpu::IcpKernels::kPhotometricDispatches);
+  ASSERT_TRUE(icp_seq.ok());
+  IcpConfig icp;
+  icp.iterations_per_level = {20, 0, 0};
+  icp.max_total_iterations = 20;
+  for (const double weight : {1.0, 0.0}) {
+    double sigma = 0;
+    gpu::PhotometricMaps maps{&colors[1], k.width, &colors[0], icp.photometric, &sigma};
+    maps.config.weight = weight;
+    gpu::GpuNormalEquationSource source(*kernels, *icp_seq, *cur, *ref, nullptr, 0, maps);
+    auto result = run_icp(source, icp, Eigen::Isometry3d::Identity());
+    ASSERT_TRUE(result.ok()) << result.error().describe();
+    const double error = (result->T_ref_cur.translation() - moved.translation()).norm();
+    if (weight > 0) {
+      EXPECT_LT(error, 0.002);
+      EXPECT_LT(rotation_deg(result->T_ref_cur * moved.inverse()), 0.1);
+      EXPECT_GT(sigma, 0.0);  // the Huber scale of the next evaluation
+    } else {
+      EXPECT_GT(error, 0.007);  // the motion along the wall is not seen
+    }
+  }
 }
 
 TEST_F(GpuTest, ALargeMotionFromTheWrongStartIsFlaggedOrFails) {

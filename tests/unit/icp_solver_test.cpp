@@ -186,6 +186,10 @@ TEST(IcpPhotometric, EachTermIsWeighedByItsOwnResidual) {
   add_photometric(unchanged, NormalEquations{}, 1.0);
   EXPECT_TRUE(unchanged.photometric_AtA.isZero());
   EXPECT_EQ(unchanged.photometric_pairs, 0u);
+  // A depth residual below the sensor's least noise counts as that noise.
+  NormalEquations exact = wall_equations(x, 0.0);
+  add_photometric(exact, colour, 1.0, 1e-6);
+  EXPECT_LT((exact.photometric_AtA - 1e-6 / 2.5e-3 * colour.AtA).norm(), 1e-9 * colour.AtA.norm());
 }
 
 TEST(IcpPhotometric, TheColourConstrainsWhatTheWallLeavesFree) {
@@ -199,7 +203,8 @@ TEST(IcpPhotometric, TheColourConstrainsWhatTheWallLeavesFree) {
   const IcpStep step = solve_icp_step(eq, 562.3);
   ASSERT_TRUE(step.solvable);
   EXPECT_EQ(step.constrained_directions, 6);
-  EXPECT_LT(step.condition, 562.3);
+  // kappa stays the depth's: the wall is no more reliable for its colour.
+  EXPECT_FALSE(std::isfinite(step.condition) && step.condition < 1e6);
   EXPECT_LT((step.x - x).norm(), 1e-3 * x.norm() + 2e-4);
   // The residual is the depth's at the solution: its noise, 1e-3^2 per row.
   EXPECT_NEAR(step.residual / eq.weight_sum, 1e-6, 2e-7);

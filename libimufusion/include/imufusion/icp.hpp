@@ -60,7 +60,7 @@ struct NormalEquations {
   double valid_information = 0;
   double inlier_information = 0;
   /// A photometric term (add_photometric), in the depth's units: the solve adds it to AtA and
-  /// Atb; the residual, the pairing figures and the weights stay the depth's alone.
+  /// Atb; kappa, the residual, the pairing figures and the weights stay the depth's alone.
   Eigen::Matrix<double, 6, 6> photometric_AtA = Eigen::Matrix<double, 6, 6>::Zero();
   Eigen::Matrix<double, 6, 1> photometric_Atb = Eigen::Matrix<double, 6, 1>::Zero();
   std::uint64_t photometric_pairs = 0;
@@ -82,8 +82,10 @@ struct NormalEquations {
 /// Adds the photometric equations `photo` (intensity residuals, IcpPhotometricConfig) to the
 /// depth's `eq` as its photometric term, each term weighed by the inverse of its own mean squared
 /// residual at the pose both were evaluated at: photo scaled by weight * (btb / weight_sum) of
-/// `eq` over that of `photo`. Nothing is added when either has no residual.
-void add_photometric(NormalEquations& eq, const NormalEquations& photo, double weight);
+/// `eq`, at least `min_depth_variance` (m^2, the sensor's least noise), over that of `photo`.
+/// Nothing is added when the photometric term has no residual.
+void add_photometric(NormalEquations& eq, const NormalEquations& photo, double weight,
+                     double min_depth_variance = 0);
 
 /// Thresholds of the reliable / unreliable decision, measured with bench/icp_calibration on 1080
 /// synthetic pairs (room, wall and fast scenes, 12 seeds, three kinds of start; recall of good
@@ -116,8 +118,10 @@ struct IcpReliabilityThresholds {
 /// model's raycast colour where the pixel projects, linearized through the colour's gradient.
 struct IcpPhotometricConfig {
   /// Its weight against the depth term, each term first weighed by the inverse of its own mean
-  /// squared residual (1: equal information); 0: depth alone. Default 1.
-  double weight = 1;
+  /// squared residual (1: equal information); 0: depth alone. Default 0 (bench/README.md: 1
+  /// helps TUM fr1_xyz and the own generator's rooms, and moves some own-generator wall scans
+  /// centimetres off).
+  double weight = 0;
   /// The Huber threshold in units of the last photometric RMS residual (default 1.345: 95 %
   /// efficiency on Gaussian noise), and before any residual was measured (intensity, 0.1).
   double huber_sigmas = 1.345;
@@ -200,7 +204,7 @@ struct IcpQuality {
   double inlier_fraction = 0;      // inlier_information / valid_information (NormalEquations)
   double pixel_fraction = 0;       // inliers / valid_pixels
   double weight_sum = 0;           // sum(w)
-  double condition = 0;            // kappa = sigma_max / sigma_min of system_AtA (inf: singular)
+  double condition = 0;            // kappa = sigma_max / sigma_min of AtA (inf when singular)
   int iterations = 0;              // Gauss-Newton steps run, all levels
   int coarse_iterations = 0;       // of those, the steps run below full resolution (levels 1..)
   bool converged = false;          // the finest level's update fell below the thresholds

@@ -245,11 +245,12 @@ Status IcpConfig::validate(int levels) const {
   return {};
 }
 
-void add_photometric(NormalEquations& eq, const NormalEquations& photo, double weight) {
-  if (!(weight > 0) || !(eq.btb > 0) || !(eq.weight_sum > 0) || !(photo.btb > 0) ||
-      !(photo.weight_sum > 0))
-    return;
-  const double lambda = weight * (eq.btb / eq.weight_sum) / (photo.btb / photo.weight_sum);
+void add_photometric(NormalEquations& eq, const NormalEquations& photo, double weight,
+                     double min_depth_variance) {
+  if (!(weight > 0) || !(eq.weight_sum > 0) || !(photo.btb > 0) || !(photo.weight_sum > 0)) return;
+  const double depth_variance = std::max(eq.btb / eq.weight_sum, min_depth_variance);
+  if (!(depth_variance > 0)) return;
+  const double lambda = weight * depth_variance / (photo.btb / photo.weight_sum);
   eq.photometric_AtA += lambda * photo.AtA;
   eq.photometric_Atb += lambda * photo.Atb;
   eq.photometric_pairs += photo.inliers;
@@ -270,6 +271,12 @@ IcpStep solve_icp_step(const NormalEquations& eq, double max_condition) {
   for (int i = 0; i < 6; ++i) step.singular_values(i) = svd.singularValues()(i);
   const Eigen::Matrix<double, 6, 1>& s = step.singular_values;  // descending
   step.condition = s(5) > 0 ? s(0) / s(5) : std::numeric_limits<double>::infinity();
+  // kappa stays the depth's own: a colour term does not make a bare wall's alignment reliable.
+  if (eq.photometric_pairs > 0) {
+    const Eigen::Matrix<double, 6, 1> d =
+        Eigen::JacobiSVD<Eigen::Matrix<double, 6, 6>>(eq.AtA).singularValues();
+    step.condition = d(5) > 0 ? d(0) / d(5) : std::numeric_limits<double>::infinity();
+  }
   if (!(s(0) > 0)) return step;
   if (max_condition > 0) {
     // Truncated SVD: AtA is symmetric, so its SVD is U S U^T and x = sum over kept i of

@@ -209,7 +209,8 @@ Result<NormalEquations> GpuNormalEquationSource::evaluate(int level,
   if (!photo) return photo.error();
   if (colors_.sigma != nullptr && photo->weight_sum > 0)
     *colors_.sigma = std::sqrt(photo->btb / photo->weight_sum);
-  add_photometric(*eq, *photo, colors_.config.weight);
+  add_photometric(*eq, *photo, colors_.config.weight,
+                  kernels_.depth_noise().a * kernels_.depth_noise().a);
   return eq;
 }
 

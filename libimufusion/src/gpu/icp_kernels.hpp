@@ -65,6 +65,7 @@ class IcpKernels {
   /// Adds the partial sums of the last photometric run.
   Result<NormalEquations> read_photometric() const;
 
+  const DepthNoiseModel& depth_noise() const { return noise_; }
   /// The association rows of the last run (two vec4 per pixel), for tests.
   const Buffer& rows() const { return rows_; }
 
