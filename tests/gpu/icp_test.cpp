@@ -11,6 +11,7 @@
 
 #include <cmath>
 
+#include "../support/synth_config.hpp"
 #include "gpu/icp_kernels.hpp"
 #include "gpu/preprocessor.hpp"
 #include "gpu/rgba.hpp"
@@ -277,14 +278,7 @@ TEST_F(GpuTest, AFlatWallIsFlaggedUnreliable) {
 // two translations along it and the rotation about its normal free, ICP with the colour finds the
 // camera's motion in all six directions; on depth alone the motion along the wall is not seen.
 TEST_F(GpuTest, TheColourFindsTheMotionAlongACheckeredWall) {
-  synth::Scene scene;
-  synth::Plane wall;
-  wall.normal = Eigen::Vector3d(0, 0, 1);
-  wall.offset = 1.0;
-  wall.material.color = Eigen::Vector3f(0.15f, 0.2f, 0.25f);
-  wall.material.color2 = Eigen::Vector3f(0.9f, 0.85f, 0.8f);
-  wall.material.checker_size = 0.05;
-  scene.planes.push_back(wall);
+  const synth::Scene scene = test::checkered_wall();
   const Intrinsics k = synth::default_intrinsics(160, 120);
   const Eigen::Isometry3d moved = motion(0.4, {0, 0, 1}, {0.012, -0.008, 0});
   const PreprocessConfig config;

@@ -353,14 +353,7 @@ class ColourWallTest : public test::GpuTest {
   // The second frame's result after the first, of a checkered wall 1 m ahead; the camera moves
   // 12 mm and -8 mm along the wall and turns 0.4 deg about its normal between them.
   FrameResult second_frame(double photometric_weight) {
-    synth::Scene scene;
-    synth::Plane wall;
-    wall.normal = Eigen::Vector3d(0, 0, 1);
-    wall.offset = 1.0;
-    wall.material.color = Eigen::Vector3f(0.15f, 0.2f, 0.25f);
-    wall.material.color2 = Eigen::Vector3f(0.9f, 0.85f, 0.8f);
-    wall.material.checker_size = 0.05;
-    scene.planes.push_back(wall);
+    const synth::Scene scene = test::checkered_wall();
     ReconstructorConfig c;
     c.intrinsics = synth::default_intrinsics(160, 120);
     c.imu.enabled = false;
