@@ -113,9 +113,10 @@ struct IcpReliabilityThresholds {
   IcpReliabilityThresholds widened_to_noise(double noise_variance) const;
 };
 
-/// The photometric term of ICP (add_photometric): at ICP's finest level, where the frame and the
-/// model both have colour, each current pixel's intensity (Rec. 601 luma in [0, 1]) against the
-/// model's raycast colour where the pixel projects, linearized through the colour's gradient.
+/// The photometric term of ICP (add_photometric): at ICP's finest level, on tracked frames (the
+/// Reconstructor) where the frame and the model both have colour, each current pixel's
+/// intensity (Rec. 601 luma in [0, 1]) against the model's raycast colour where the pixel
+/// projects, linearized through the colour's gradient.
 struct IcpPhotometricConfig {
   /// Its weight against the depth term, each term first weighed by the inverse of its own mean
   /// squared residual (1: equal information); 0: depth alone. Default 0 (bench/README.md: 1

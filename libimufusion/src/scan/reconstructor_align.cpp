@@ -150,9 +150,11 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthView& depth,
     return c;
   };
   if (settling) icp = settling_budget(icp);
-  // The photometric term where the frame and the reference both have colour.
+  // The photometric term where the frame and the reference both have colour, while tracking: a
+  // lost or recovering frame's seed may lie beyond the few pixels over which the colour's
+  // linearization holds.
   gpu::PhotometricMaps colors;
-  if (frame_has_color && reference_has_color) {
+  if (frame_has_color && reference_has_color && !settling) {
     colors.current = &color;
     colors.current_width = config.intrinsics.width;
     colors.reference = &model.colors;
