@@ -19,10 +19,13 @@ void reject(uint i, float marker) {
 }
 
 void main() {
-  uvec2 px = gl_GlobalInvocationID.xy;
+  // One row per sampled pixel: every p.step-th of the level in x and y.
+  uvec2 sample_px = gl_GlobalInvocationID.xy;
+  uint samples_x = (p.width + p.step - 1u) / p.step;
+  uvec2 px = sample_px * p.step;
   if (px.x >= p.width || px.y >= p.height) return;
-  uint i = px.y * p.width + px.x;
-  vec4 v = cur_vertices[i];
+  uint i = sample_px.y * samples_x + sample_px.x;
+  vec4 v = cur_vertices[px.y * p.width + px.x];
   if (v.w <= 0.0) {
     reject(i, 0.0);
     return;

@@ -85,7 +85,7 @@ inline int scan_usage(std::ostream& out, int code) {
          "  --photometric-weight W   the colour's weight in ICP against the depth's, each by\n"
          "                           its own residual (default "
       << IcpPhotometricConfig{}.weight
-      << ": depth alone)\n"
+      << "; 0: depth alone)\n"
          "  --poses FILE             fuse with known camera-to-world poses (TUM format), no "
          "tracking\n"
          "  --frames N               scan at most N frames (counted after --frame-step)\n"

@@ -39,11 +39,13 @@ void bind_parts(py::module_& m) {
                                    "ICP's photometric term on frames with colour")
       .def(py::init<>())
       .def_readwrite("weight", &IcpPhotometricConfig::weight,
-                     "against the depth term, each by its own residual (default 0: off)")
+                     "against the depth term, each by its own residual (default 1; 0: off)")
       .def_readwrite("huber_sigmas", &IcpPhotometricConfig::huber_sigmas,
                      "Huber threshold in RMS residuals (default 1.345)")
       .def_readwrite("initial_huber", &IcpPhotometricConfig::initial_huber,
-                     "Huber threshold before a residual is known, intensity (default 0.1)");
+                     "Huber threshold before a residual is known, intensity (default 0.1)")
+      .def_readwrite("pixel_step", &IcpPhotometricConfig::pixel_step,
+                     "every Nth pixel in x and y, each weighed as N^2 pixels (default 2)");
   py::class_<IcpConfig>(m, "IcpConfig")
       .def_readwrite("max_total_iterations", &IcpConfig::max_total_iterations,
                      "Gauss-Newton steps per frame at most while tracking")

@@ -55,11 +55,16 @@ def test_config_fields_are_reachable_and_validated(vulkan_device):
     with pytest.raises(imufusion.Error, match="reference_frames"):
         config.validate()
     config.reference_frames = 0
-    assert config.icp.photometric.weight == 0
+    assert config.icp.photometric.weight == 1
     config.icp.photometric.weight = -1
     with pytest.raises(imufusion.Error, match="photometric.weight"):
         config.validate()
     config.icp.photometric.weight = 0
+    assert config.icp.photometric.pixel_step == 2
+    config.icp.photometric.pixel_step = 0
+    with pytest.raises(imufusion.Error, match="pixel_step"):
+        config.validate()
+    config.icp.photometric.pixel_step = 2
     with pytest.raises(ValueError, match="rigid"):
         config.inertial.T_camera_imu = np.ones((4, 4))
     with pytest.raises(ValueError, match=r"\(4, 4\).*float64 array of shape \(3, 3\)"):

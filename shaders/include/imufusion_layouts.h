@@ -115,6 +115,7 @@ struct IcpPhotometricParams {
   uint color_width;    // the current colour's width (full resolution)
   uint color_shift;    // log2 of the level's downsampling from the current colour
   float huber;         // intensity
+  uint step;           // every step-th pixel in x and y; row (y / step) * ceil(width / step) + x / step
 };
 
 // icp_reduce: the first stage of a deterministic two-stage reduction over the association rows.

@@ -10,6 +10,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
+#include <utility>
 
 #include "../support/synth_config.hpp"
 #include "gpu/icp_kernels.hpp"
@@ -308,10 +310,13 @@ TEST_F(GpuTest, TheColourFindsTheMotionAlongACheckeredWall) {
   IcpConfig icp;
   icp.iterations_per_level = {20, 0, 0};
   icp.max_total_iterations = 20;
-  for (const double weight : {1.0, 0.0}) {
+  // Every pixel, every other pixel in x and y, and no colour.
+  for (const auto& [weight, step] : {std::pair{1.0, 1}, std::pair{1.0, 2}, std::pair{0.0, 1}}) {
+    SCOPED_TRACE("weight " + std::to_string(weight) + ", pixel step " + std::to_string(step));
     double sigma = 0;
     gpu::PhotometricMaps maps{&colors[1], k.width, &colors[0], icp.photometric, &sigma};
     maps.config.weight = weight;
+    maps.config.pixel_step = step;
     gpu::GpuNormalEquationSource source(*kernels, *icp_seq, *cur, *ref, nullptr, 0, maps);
     auto result = run_icp(source, icp, Eigen::Isometry3d::Identity());
     ASSERT_TRUE(result.ok()) << result.error().describe();

@@ -192,7 +192,7 @@ TEST(IcpPhotometric, EachTermIsWeighedByItsOwnResidual) {
   EXPECT_LT((exact.photometric_AtA - 1e-6 / 2.5e-3 * colour.AtA).norm(), 1e-9 * colour.AtA.norm());
 }
 
-TEST(IcpPhotometric, TheColourConstrainsWhatTheWallLeavesFree) {
+TEST(IcpPhotometric, TheColourCompletesAWallOnlyInAFullSolve) {
   Eigen::Matrix<double, 6, 1> x;
   x << 0.002, -0.001, 0.004, 0.01, -0.006, 0.003;
   NormalEquations eq = wall_equations(x, 0.001);
@@ -200,14 +200,42 @@ TEST(IcpPhotometric, TheColourConstrainsWhatTheWallLeavesFree) {
   EXPECT_EQ(depth_only.constrained_directions, 3);
   EXPECT_FALSE(std::isfinite(depth_only.condition) && depth_only.condition < 1e6);
   add_photometric(eq, colour_equations(x, 0.01), 1.0);
+  // Without degeneracy-aware solving the colour fixes the slide along the wall.
+  const IcpStep full = solve_icp_step(eq);
+  ASSERT_TRUE(full.solvable);
+  EXPECT_EQ(full.constrained_directions, 6);
+  EXPECT_LT((full.x - x).norm(), 1e-3 * x.norm() + 2e-4);
+  // kappa stays the depth's: the wall is no more reliable for its colour.
+  EXPECT_FALSE(std::isfinite(full.condition) && full.condition < 1e6);
+  // The residual is the depth's at the solution: its noise, 1e-3^2 per row.
+  EXPECT_NEAR(full.residual / eq.weight_sum, 1e-6, 2e-7);
+}
+
+TEST(IcpPhotometric, TheColourMovesOnlyWhatTheDepthConstrains) {
+  // The wall fixes alpha, beta and tz; gamma, tx and ty stay at the initial pose with colour or
+  // without, and the colour refines the three the depth fixes.
+  Eigen::Matrix<double, 6, 1> x;
+  x << 0.002, -0.001, 0.0, 0.0, 0.0, 0.003;
+  Eigen::Matrix<double, 6, 1> biased = x;  // the depth alone, off by a bias along tz
+  biased(5) += 0.002;
+  NormalEquations eq = wall_equations(biased, 0.0);
+  const IcpStep depth_only = solve_icp_step(eq, 562.3);
+  ASSERT_TRUE(depth_only.solvable);
+  EXPECT_NEAR(depth_only.x(5), biased(5), 1e-9);
+  add_photometric(eq, colour_equations(x, 0.001), 1.0, 1e-6);
   const IcpStep step = solve_icp_step(eq, 562.3);
   ASSERT_TRUE(step.solvable);
-  EXPECT_EQ(step.constrained_directions, 6);
-  // kappa stays the depth's: the wall is no more reliable for its colour.
+  EXPECT_EQ(step.constrained_directions, 3);
   EXPECT_FALSE(std::isfinite(step.condition) && step.condition < 1e6);
-  EXPECT_LT((step.x - x).norm(), 1e-3 * x.norm() + 2e-4);
-  // The residual is the depth's at the solution: its noise, 1e-3^2 per row.
-  EXPECT_NEAR(step.residual / eq.weight_sum, 1e-6, 2e-7);
+  for (const int free : {2, 3, 4}) EXPECT_NEAR(step.x(free), 0.0, 1e-12) << "direction " << free;
+  // Between the depth's tz and the colour's, nearer the colour's: its rows are the stronger here.
+  EXPECT_LT(step.x(5), biased(5) - 0.001);
+  EXPECT_GT(step.x(5), x(5) - 1e-4);
+  EXPECT_NEAR(step.x(0), x(0), 2e-4);
+  EXPECT_NEAR(step.x(1), x(1), 2e-4);
+  // The directions and their singular values are the depth's.
+  EXPECT_LT((step.singular_values - depth_only.singular_values).norm(),
+            1e-9 * depth_only.singular_values(0));
 }
 
 TEST(IcpConfigValidate, RejectsAPhotometricWeightOrThresholdOutOfRange) {
@@ -221,6 +249,13 @@ TEST(IcpConfigValidate, RejectsAPhotometricWeightOrThresholdOutOfRange) {
   c.photometric.huber_sigmas = 1.345;
   c.photometric.initial_huber = std::nan("");
   EXPECT_FALSE(c.validate(3).ok());
+  c.photometric.initial_huber = 0.1;
+  c.photometric.pixel_step = 0;
+  EXPECT_FALSE(c.validate(3).ok());
+  c.photometric.pixel_step = 17;
+  EXPECT_FALSE(c.validate(3).ok());
+  c.photometric.pixel_step = 16;
+  EXPECT_TRUE(c.validate(3).ok());
 }
 
 TEST(IcpIncrement, IsARotationEvenForLargeAngles) {

@@ -239,6 +239,9 @@ Status IcpConfig::validate(int levels) const {
   if (!(photometric.initial_huber > 0 && std::isfinite(photometric.initial_huber)))
     return bad("photometric.initial_huber must be positive, got " +
                format(photometric.initial_huber));
+  if (photometric.pixel_step < 1 || photometric.pixel_step > 16)
+    return bad("photometric.pixel_step must be 1..16, got " +
+               std::to_string(photometric.pixel_step));
   if (!(seed_gate_hold_sigmas > 0 && seed_gate_hold_sigmas <= seed_gate_sigmas))
     return bad("seed_gate_hold_sigmas must be in (0, seed_gate_sigmas], got " +
                format(seed_gate_hold_sigmas));
@@ -264,34 +267,46 @@ IcpStep solve_icp_step(const NormalEquations& eq, double max_condition) {
     step.condition = std::numeric_limits<double>::infinity();
     return step;
   }
+  // The directions, their singular values and kappa are the depth's own: a colour term neither
+  // makes a bare wall's alignment reliable nor moves the pose along a direction the depth leaves
+  // unconstrained (it refines those the depth fixes).
   const Eigen::JacobiSVD<Eigen::Matrix<double, 6, 6>> svd(
-      AtA, Eigen::ComputeFullU | Eigen::ComputeFullV);
+      eq.AtA, Eigen::ComputeFullU | Eigen::ComputeFullV);
   step.directions = svd.matrixU();
   // Element by element: GCC 12 reports the vectorized whole-vector copy as maybe-uninitialized.
   for (int i = 0; i < 6; ++i) step.singular_values(i) = svd.singularValues()(i);
   const Eigen::Matrix<double, 6, 1>& s = step.singular_values;  // descending
   step.condition = s(5) > 0 ? s(0) / s(5) : std::numeric_limits<double>::infinity();
-  // kappa stays the depth's own: a colour term does not make a bare wall's alignment reliable.
-  if (eq.photometric_pairs > 0) {
-    const Eigen::Matrix<double, 6, 1> d =
-        Eigen::JacobiSVD<Eigen::Matrix<double, 6, 6>>(eq.AtA).singularValues();
-    step.condition = d(5) > 0 ? d(0) / d(5) : std::numeric_limits<double>::infinity();
-  }
   if (!(s(0) > 0)) return step;
+  const Eigen::Matrix<double, 6, 6>& U = svd.matrixU();
+  const bool photometric = eq.photometric_pairs > 0;
   if (max_condition > 0) {
-    // Truncated SVD: AtA is symmetric, so its SVD is U S U^T and x = sum over kept i of
-    // u_i (u_i . Atb) / s_i.
-    const Eigen::Matrix<double, 6, 6>& U = svd.matrixU();
     for (int i = 0; i < 6; ++i) {
       if (!(s(i) > 0) || s(0) / s(i) > max_condition) break;
-      step.x += U.col(i) * (U.col(i).dot(Atb) / s(i));
       ++step.constrained_directions;
+    }
+    const int k = step.constrained_directions;
+    if (!photometric) {
+      // Truncated SVD: AtA is symmetric, so its SVD is U S U^T and x = sum over kept i of
+      // u_i (u_i . Atb) / s_i.
+      for (int i = 0; i < k; ++i) step.x += U.col(i) * (U.col(i).dot(Atb) / s(i));
+    } else if (k > 0) {
+      // The whole system solved within the span of the depth's kept directions.
+      const Eigen::MatrixXd Uk = U.leftCols(k);
+      const Eigen::MatrixXd H = Uk.transpose() * AtA * Uk;
+      step.x = Uk * H.ldlt().solve(Uk.transpose() * Atb);
     }
     std::vector<Eigen::Matrix<double, 6, 1>> left_out;
     for (int i = step.constrained_directions; i < 6; ++i) left_out.push_back(U.col(i));
     step.fixed_translation = fixed_translation_without(left_out);
   } else {
-    step.x = svd.solve(Atb);
+    if (photometric) {
+      const Eigen::JacobiSVD<Eigen::Matrix<double, 6, 6>> whole(
+          AtA, Eigen::ComputeFullU | Eigen::ComputeFullV);
+      step.x = whole.solve(Atb);
+    } else {
+      step.x = svd.solve(Atb);
+    }
     step.constrained_directions = 6;
     step.fixed_translation.setIdentity();
   }

@@ -116,12 +116,15 @@ void IcpKernels::record_photometric(CommandSequence& seq, const IcpMaps& current
   params.color_width = static_cast<std::uint32_t>(colors.current_width);
   params.color_shift = static_cast<std::uint32_t>(level);
   params.huber = huber;
+  params.step = static_cast<std::uint32_t>(std::max(1, colors.config.pixel_step));
+  const std::uint32_t samples_x = (params.width + params.step - 1) / params.step;
+  const std::uint32_t samples_y = (params.height + params.step - 1) / params.step;
   const std::string suffix = "[" + std::to_string(level) + "]";
   seq.dispatch(
       photometric_,
       {current.vertices, colors.current, reference.vertices, colors.reference, &photo_rows_},
-      params, params.width, params.height, "icp_photometric" + suffix);
-  const std::uint32_t row_count = params.width * params.height;
+      params, samples_x, samples_y, "icp_photometric" + suffix);
+  const std::uint32_t row_count = samples_x * samples_y;
   photo_groups_ = (row_count + kRowsPerGroup - 1) / kRowsPerGroup;
   const layout::IcpReduceParams reduce{row_count, kRowsPerGroup, 0.0f, 0.0f, 0.0f};
   seq.dispatch(reduce_, {&photo_rows_, current.vertices, &photo_partials_}, reduce, photo_groups_,
@@ -209,7 +212,9 @@ Result<NormalEquations> GpuNormalEquationSource::evaluate(int level,
   if (!photo) return photo.error();
   if (colors_.sigma != nullptr && photo->weight_sum > 0)
     *colors_.sigma = std::sqrt(photo->btb / photo->weight_sum);
-  add_photometric(*eq, *photo, colors_.config.weight,
+  // Each sampled row stands for the pixel_step^2 pixels around it.
+  const double step = std::max(1, colors_.config.pixel_step);
+  add_photometric(*eq, *photo, colors_.config.weight * step * step,
                   kernels_.depth_noise().a * kernels_.depth_noise().a);
   return eq;
 }

@@ -182,7 +182,7 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthView& depth,
     const int spent = result->quality.iterations;
     gpu::GpuNormalEquationSource depth_only(icp_kernels, icp_seq, current, reference,
                                             &timings.kernels, tracking_level);
-    result = run_icp(depth_only, settling ? icp : retry, T_ref_seed);
+    result = run_icp(depth_only, retry, T_ref_seed);
     if (result) result->quality.iterations += spent;
   }
   timings.icp_ms += ms_since(t0);
