@@ -65,6 +65,8 @@ class IcpKernels {
   /// Adds the partial sums of the last photometric run.
   Result<NormalEquations> read_photometric() const;
 
+  /// The depth noise model the kernels were created with: the association's information
+  /// weights, and the depth variance floor of the photometric term's weighting.
   const DepthNoiseModel& depth_noise() const { return noise_; }
   /// The association rows of the last run (two vec4 per pixel), for tests.
   const Buffer& rows() const { return rows_; }
