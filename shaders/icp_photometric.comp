@@ -9,6 +9,8 @@ layout(std430, set = 0, binding = 2) readonly buffer RefVertices { vec4 ref_vert
 layout(std430, set = 0, binding = 3) readonly buffer RefColors { uint ref_colors[]; };  // RGBA8
 // icp_associate's row format: (a0..a3), (a4, a5, b, w); w = 0: no vertex, w = -1: rejected.
 layout(std430, set = 0, binding = 4) writeonly buffer Rows { vec4 rows[]; };
+// The depth's association rows of the same pose (icp_associate, one per level pixel).
+layout(std430, set = 0, binding = 5) readonly buffer DepthRows { vec4 depth_rows[]; };
 layout(push_constant) uniform Push { IcpPhotometricParams p; };
 
 const vec3 kLuma = vec3(0.299, 0.587, 0.114);
@@ -25,9 +27,16 @@ void main() {
   uvec2 px = sample_px * p.step;
   if (px.x >= p.width || px.y >= p.height) return;
   uint i = sample_px.y * samples_x + sample_px.x;
-  vec4 v = cur_vertices[px.y * p.width + px.x];
+  uint pixel = px.y * p.width + px.x;
+  vec4 v = cur_vertices[pixel];
   if (v.w <= 0.0) {
     reject(i, 0.0);
+    return;
+  }
+  // Only where the depth pairs the pixel with the model: not across an occlusion, a depth edge
+  // or a flying pixel, whose colour belongs to another surface.
+  if (depth_rows[2u * pixel + 1u].w <= 0.0) {
+    reject(i, -1.0);
     return;
   }
   mat3 R = mat3(p.r00, p.r10, p.r20, p.r01, p.r11, p.r21, p.r02, p.r12, p.r22);  // column-major

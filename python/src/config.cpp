@@ -45,7 +45,9 @@ void bind_parts(py::module_& m) {
       .def_readwrite("initial_huber", &IcpPhotometricConfig::initial_huber,
                      "Huber threshold before a residual is known, intensity (default 0.1)")
       .def_readwrite("pixel_step", &IcpPhotometricConfig::pixel_step,
-                     "every Nth pixel in x and y, each weighed as N^2 pixels (default 2)");
+                     "every Nth pixel in x and y, each weighed as N^2 pixels (default 2)")
+      .def_readwrite("min_sigma", &IcpPhotometricConfig::min_sigma,
+                     "the camera's least intensity noise, 1 sigma (default 0.02)");
   py::class_<IcpConfig>(m, "IcpConfig")
       .def_readwrite("max_total_iterations", &IcpConfig::max_total_iterations,
                      "Gauss-Newton steps per frame at most while tracking")

@@ -65,6 +65,11 @@ def test_config_fields_are_reachable_and_validated(vulkan_device):
     with pytest.raises(imufusion.Error, match="pixel_step"):
         config.validate()
     config.icp.photometric.pixel_step = 2
+    assert config.icp.photometric.min_sigma == pytest.approx(0.02)
+    config.icp.photometric.min_sigma = -1
+    with pytest.raises(imufusion.Error, match="min_sigma"):
+        config.validate()
+    config.icp.photometric.min_sigma = 0.02
     with pytest.raises(ValueError, match="rigid"):
         config.inertial.T_camera_imu = np.ones((4, 4))
     with pytest.raises(ValueError, match=r"\(4, 4\).*float64 array of shape \(3, 3\)"):

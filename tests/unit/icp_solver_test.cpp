@@ -190,6 +190,13 @@ TEST(IcpPhotometric, EachTermIsWeighedByItsOwnResidual) {
   NormalEquations exact = wall_equations(x, 0.0);
   add_photometric(exact, colour, 1.0, 1e-6);
   EXPECT_LT((exact.photometric_AtA - 1e-6 / 2.5e-3 * colour.AtA).norm(), 1e-9 * colour.AtA.norm());
+  // A colour residual below the camera's least noise counts as that noise; above it, as itself.
+  NormalEquations floored = depth;
+  add_photometric(floored, colour, 1.0, 0.0, 1e-2);
+  EXPECT_LT((floored.photometric_AtA - 4e-6 / 1e-2 * colour.AtA).norm(), 1e-9 * colour.AtA.norm());
+  NormalEquations above = depth;
+  add_photometric(above, colour, 1.0, 0.0, 1e-4);
+  EXPECT_LT((above.photometric_AtA - 4e-6 / 2.5e-3 * colour.AtA).norm(), 1e-9 * colour.AtA.norm());
 }
 
 TEST(IcpPhotometric, TheColourCompletesAWallOnlyInAFullSolve) {
@@ -255,6 +262,12 @@ TEST(IcpConfigValidate, RejectsAPhotometricWeightOrThresholdOutOfRange) {
   c.photometric.pixel_step = 17;
   EXPECT_FALSE(c.validate(3).ok());
   c.photometric.pixel_step = 16;
+  EXPECT_TRUE(c.validate(3).ok());
+  c.photometric.min_sigma = -0.01;
+  EXPECT_FALSE(c.validate(3).ok());
+  c.photometric.min_sigma = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(c.validate(3).ok());
+  c.photometric.min_sigma = 0;
   EXPECT_TRUE(c.validate(3).ok());
 }
 

@@ -123,7 +123,8 @@ TEST(SensorPresets, AreValidAndFollowTheImu) {
 }
 
 // The Kinect preset is the library's member defaults; the phone ToF one takes the sensor's
-// 0.2-4 m range, its noise (the generator's model: 1 % of z) and larger voxels.
+// 0.2-4 m range, its noise (the generator's model: 1 % of z), larger voxels and ICP on the depth
+// alone (its voxels hold the colour too coarsely for the photometric term).
 TEST(SensorPresets, PhoneToFTakesTheSensorsRangeAndNoise) {
   const ReconstructorConfig defaults;
   const ReconstructorConfig kinect =
@@ -131,6 +132,8 @@ TEST(SensorPresets, PhoneToFTakesTheSensorsRangeAndNoise) {
   EXPECT_EQ(kinect.preprocess.min_depth, defaults.preprocess.min_depth);
   EXPECT_EQ(kinect.volume.voxel_size, defaults.volume.voxel_size);
   EXPECT_EQ(kinect.icp.depth_noise.a, defaults.icp.depth_noise.a);
+  EXPECT_EQ(kinect.icp.photometric.weight, defaults.icp.photometric.weight);
+  EXPECT_GT(kinect.icp.photometric.weight, 0.0);
 
   const ReconstructorConfig tof =
       preset_config(SensorPreset::kPhoneToF, synth::default_intrinsics(240, 180), true);
@@ -138,6 +141,7 @@ TEST(SensorPresets, PhoneToFTakesTheSensorsRangeAndNoise) {
   EXPECT_FLOAT_EQ(tof.preprocess.min_depth, static_cast<float>(sensor.min_depth));
   EXPECT_FLOAT_EQ(tof.preprocess.max_depth, static_cast<float>(sensor.max_depth));
   EXPECT_GT(tof.volume.voxel_size, kinect.volume.voxel_size);
+  EXPECT_EQ(tof.icp.photometric.weight, 0.0);
   for (double z = 0.8; z <= 4.0; z += 0.1) {
     const double model = synth::tof_noise_sigma(z, 0.5, 1.0);
     EXPECT_NEAR(tof.icp.depth_noise.sigma(z), model, 0.15 * model) << "z " << z;

@@ -82,10 +82,11 @@ struct NormalEquations {
 /// Adds the photometric equations `photo` (intensity residuals, IcpPhotometricConfig) to the
 /// depth's `eq` as its photometric term, each term weighed by the inverse of its own mean squared
 /// residual at the pose both were evaluated at: photo scaled by weight * (btb / weight_sum) of
-/// `eq`, at least `min_depth_variance` (m^2, the sensor's least noise), over that of `photo`.
-/// Nothing is added when the photometric term has no residual.
+/// `eq`, at least `min_depth_variance` (m^2, the sensor's least noise), over that of `photo`, at
+/// least `min_photometric_variance` (intensity^2, the camera's least noise). Nothing is added
+/// when the photometric term has no residual.
 void add_photometric(NormalEquations& eq, const NormalEquations& photo, double weight,
-                     double min_depth_variance = 0);
+                     double min_depth_variance = 0, double min_photometric_variance = 0);
 
 /// Thresholds of the reliable / unreliable decision, measured with bench/icp_calibration on 1080
 /// synthetic pairs (room, wall and fast scenes, 12 seeds, three kinds of start; recall of good
@@ -130,6 +131,10 @@ struct IcpPhotometricConfig {
   /// as the pixel_step^2 pixels it stands for (the model's colours are correlated over
   /// neighbouring pixels). Default 2 (bench/README.md: a quarter of the cost, the same accuracy).
   int pixel_step = 2;
+  /// The camera's least intensity noise (1 sigma, intensity in [0, 1]): the colour's mean
+  /// squared residual counts as at least its square, so a colour that the model reproduces almost
+  /// exactly (a synthetic one, a flat shade) is not taken as near-exact evidence. Default 0.02.
+  double min_sigma = 0.02;
 };
 
 struct IcpConfig {

@@ -239,6 +239,9 @@ Status IcpConfig::validate(int levels) const {
   if (!(photometric.initial_huber > 0 && std::isfinite(photometric.initial_huber)))
     return bad("photometric.initial_huber must be positive, got " +
                format(photometric.initial_huber));
+  if (!(photometric.min_sigma >= 0 && std::isfinite(photometric.min_sigma)))
+    return bad("photometric.min_sigma must be finite and non-negative, got " +
+               format(photometric.min_sigma));
   if (photometric.pixel_step < 1 || photometric.pixel_step > 16)
     return bad("photometric.pixel_step must be 1..16, got " +
                std::to_string(photometric.pixel_step));
@@ -249,11 +252,13 @@ Status IcpConfig::validate(int levels) const {
 }
 
 void add_photometric(NormalEquations& eq, const NormalEquations& photo, double weight,
-                     double min_depth_variance) {
+                     double min_depth_variance, double min_photometric_variance) {
   if (!(weight > 0) || !(eq.weight_sum > 0) || !(photo.btb > 0) || !(photo.weight_sum > 0)) return;
   const double depth_variance = std::max(eq.btb / eq.weight_sum, min_depth_variance);
   if (!(depth_variance > 0)) return;
-  const double lambda = weight * depth_variance / (photo.btb / photo.weight_sum);
+  const double photometric_variance =
+      std::max(photo.btb / photo.weight_sum, min_photometric_variance);
+  const double lambda = weight * depth_variance / photometric_variance;
   eq.photometric_AtA += lambda * photo.AtA;
   eq.photometric_Atb += lambda * photo.Atb;
   eq.photometric_pairs += photo.inliers;

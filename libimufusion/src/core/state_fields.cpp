@@ -22,7 +22,7 @@ void describe(StateArchive& a, IcpReliabilityThresholds& x) {
 void describe(StateArchive& a, DepthNoiseModel& x) { a(x.a, x.b, x.z0); }
 
 void describe(StateArchive& a, IcpPhotometricConfig& x) {
-  a(x.weight, x.huber_sigmas, x.initial_huber, x.pixel_step);
+  a(x.weight, x.huber_sigmas, x.initial_huber, x.pixel_step, x.min_sigma);
 }
 
 void describe(StateArchive& a, IcpConfig& x) {

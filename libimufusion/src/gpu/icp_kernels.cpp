@@ -35,7 +35,7 @@ Result<IcpKernels> IcpKernels::create(std::shared_ptr<Context> context, std::siz
   if (!reduce) return reduce.error();
   k.reduce_ = std::move(*reduce);
   auto photometric = ComputePipeline::create(
-      context, {"icp_photometric", 5, sizeof(layout::IcpPhotometricParams),
+      context, {"icp_photometric", 6, sizeof(layout::IcpPhotometricParams),
                 static_cast<std::uint32_t>(workgroup_x), static_cast<std::uint32_t>(workgroup_y)});
   if (!photometric) return photometric.error();
   k.photometric_ = std::move(*photometric);
@@ -120,10 +120,10 @@ void IcpKernels::record_photometric(CommandSequence& seq, const IcpMaps& current
   const std::uint32_t samples_x = (params.width + params.step - 1) / params.step;
   const std::uint32_t samples_y = (params.height + params.step - 1) / params.step;
   const std::string suffix = "[" + std::to_string(level) + "]";
-  seq.dispatch(
-      photometric_,
-      {current.vertices, colors.current, reference.vertices, colors.reference, &photo_rows_},
-      params, samples_x, samples_y, "icp_photometric" + suffix);
+  seq.dispatch(photometric_,
+               {current.vertices, colors.current, reference.vertices, colors.reference,
+                &photo_rows_, &rows_},
+               params, samples_x, samples_y, "icp_photometric" + suffix);
   const std::uint32_t row_count = samples_x * samples_y;
   photo_groups_ = (row_count + kRowsPerGroup - 1) / kRowsPerGroup;
   const layout::IcpReduceParams reduce{row_count, kRowsPerGroup, 0.0f, 0.0f, 0.0f};
@@ -215,7 +215,8 @@ Result<NormalEquations> GpuNormalEquationSource::evaluate(int level,
   // Each sampled row stands for the pixel_step^2 pixels around it.
   const double step = std::max(1, colors_.config.pixel_step);
   add_photometric(*eq, *photo, colors_.config.weight * step * step,
-                  kernels_.depth_noise().a * kernels_.depth_noise().a);
+                  kernels_.depth_noise().a * kernels_.depth_noise().a,
+                  colors_.config.min_sigma * colors_.config.min_sigma);
   return eq;
 }
 

@@ -55,7 +55,8 @@ class IcpKernels {
   /// Dispatches record() and record_photometric() add together.
   static constexpr std::uint32_t kPhotometricDispatches = 4;
   /// Records the photometric rows of `current` (its colours at 2^level times its resolution)
-  /// against `reference` and their partial reduction, with the Huber threshold `huber`.
+  /// against `reference` and their partial reduction, with the Huber threshold `huber`: after
+  /// record() of the same pose, whose pairs are the only pixels it compares.
   void record_photometric(CommandSequence& seq, const IcpMaps& current, const IcpMaps& reference,
                           const PhotometricMaps& colors, float huber,
                           const Intrinsics& ref_intrinsics, const Eigen::Isometry3d& T_ref_cur,
