@@ -121,7 +121,7 @@ struct IcpReliabilityThresholds {
 struct IcpPhotometricConfig {
   /// Its weight against the depth term, each term first weighed by the inverse of its own mean
   /// squared residual (1: equal information); 0: depth alone. Default 1 (bench/README.md: TUM
-  /// fr1_xyz 19.3-19.7 mm at frame steps 1-4, none lost, against 20.1-21.7 mm without).
+  /// fr1_xyz 19.0-19.1 mm at frame steps 1-4, none lost, against 20.1-21.7 mm without).
   double weight = 1;
   /// The Huber threshold in units of the last photometric RMS residual (default 1.345: 95 %
   /// efficiency on Gaussian noise), and before any residual was measured (intensity, 0.1).
