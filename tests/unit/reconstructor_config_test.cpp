@@ -86,6 +86,14 @@ TEST(ReconstructorConfig, RejectsSettingsOutOfRange) {
   EXPECT_FALSE(c.validate().ok());
   c.smoothing.retracked_frame_sigma = 0;  // the oldest frame placed is the end
   EXPECT_TRUE(c.validate().ok());
+  c.relocalization.near_fit_condition_factor = -1;
+  s = c.validate();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("near_fit_condition_factor"), std::string::npos);
+  c.relocalization.near_fit_condition_factor = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(c.validate().ok());
+  c.relocalization.near_fit_condition_factor = 0;  // no search again
+  EXPECT_TRUE(c.validate().ok());
   c.recovery.agreement_distance = -0.05;
   s = c.validate();
   ASSERT_FALSE(s.ok());

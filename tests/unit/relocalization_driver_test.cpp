@@ -1,6 +1,7 @@
 // The relocalization driver's decisions on a search whose best fit is not the only one: it waits
 // for the next search, from another view, to put the frame at the same correction of its
-// estimate. The model is a floor plane, the alignments a scripted stand-in for the GPU's.
+// estimate; and on one whose best fit nearly constrained every direction: the next lost frame
+// searches again. The model is a floor plane, the alignments a scripted stand-in for the GPU's.
 
 #include <gtest/gtest.h>
 
@@ -31,6 +32,7 @@ class ScriptedModel : public ModelAligner {
   }
 
   std::vector<ScriptedFit> fits;  // this search's candidates, in order
+  double ill_condition = 1e4;     // an ill-conditioned fit's kappa: a wall's, by default
   Eigen::Isometry3d estimate;     // the frame's estimate
   int searches = 0;               // searches started (frame_points calls)
 
@@ -48,7 +50,7 @@ class ScriptedModel : public ModelAligner {
     q.inliers = 5000;
     q.inlier_fraction = scripted.fit == Fit::kNone ? 0.1 : 0.8;
     q.pixel_fraction = q.inlier_fraction;
-    q.condition = scripted.fit == Fit::kIllConditioned ? 2000 : 100;
+    q.condition = scripted.fit == Fit::kIllConditioned ? ill_condition : 100;
     q.residual_per_weight = 1e-6;
     p.icp.verdict =
         scripted.fit == Fit::kReliable ? IcpVerdict::kReliable : IcpVerdict::kUnreliable;
@@ -167,6 +169,38 @@ TEST_F(RelocalizationDriverTest, AFrameThatIsNotLostForgetsTheCorrectionWaitingF
   // A new loss: its first search is ambiguous again and ends nothing.
   for (int k = 7; k <= 11; ++k) EXPECT_FALSE(lost_frame(k));
   EXPECT_EQ(model.searches, 2);
+}
+
+TEST_F(RelocalizationDriverTest, AFitThatNearlyConstrainsEveryDirectionSearchesAgainAtOnce) {
+  // The view leaves a wall: the search's fit fails only the condition number, within
+  // relocalization.near_fit_condition_factor (6) of its limit (562.3).
+  model.ill_condition = 2000;
+  model.fits = {{Fit::kIllConditioned, correction}};
+  for (int k = 1; k <= 5; ++k) EXPECT_FALSE(lost_frame(k));
+  EXPECT_EQ(model.searches, 1);
+  EXPECT_FALSE(lost_frame(6));  // searches again, and again finds the fit short
+  EXPECT_EQ(model.searches, 2);
+  model.fits = {{Fit::kReliable, correction}};
+  EXPECT_TRUE(placed_at_correction(lost_frame(7), 7));
+  EXPECT_EQ(model.searches, 3);
+}
+
+TEST_F(RelocalizationDriverTest, AWallsFitWaitsForTheNextRegularSearch) {
+  // kappa 1e4, 18 times the limit: the view is a wall, and the next frames search no sooner.
+  model.fits = {{Fit::kIllConditioned, correction}};
+  for (int k = 1; k <= 9; ++k) EXPECT_FALSE(lost_frame(k));
+  EXPECT_EQ(model.searches, 1);
+  EXPECT_FALSE(lost_frame(10));
+  EXPECT_EQ(model.searches, 2);
+}
+
+TEST_F(RelocalizationDriverTest, TheNearFitRetryCanBeTurnedOff) {
+  config.relocalization.near_fit_condition_factor = 0;
+  driver = RelocalizationDriver(config);
+  model.ill_condition = 2000;
+  model.fits = {{Fit::kIllConditioned, correction}};
+  for (int k = 1; k <= 9; ++k) EXPECT_FALSE(lost_frame(k));
+  EXPECT_EQ(model.searches, 1);
 }
 
 }  // namespace

@@ -75,6 +75,10 @@ struct RelocalizationConfig {
   /// frame (0.5 a t^2), from the coarsest ICP level's reach up to max_radius (m).
   double drift_acceleration = 0.17;
   double max_radius = 1.5;
+  /// A search whose best fit fails only the condition number, by at most this factor of
+  /// icp.reliability.max_condition, searches again at the next lost frame: the view is leaving
+  /// a wall, and the next frame may constrain every direction. 0: off. Default 6.
+  double near_fit_condition_factor = 6;
 };
 
 /// How a lost frame settles onto the model again.

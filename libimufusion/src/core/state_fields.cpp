@@ -57,7 +57,8 @@ void describe(StateArchive& a, ImuAidConfig& x) {
 }
 
 void describe(StateArchive& a, RelocalizationConfig& x) {
-  a(x.enabled, x.interval, x.cell, x.candidates, x.drift_acceleration, x.max_radius);
+  a(x.enabled, x.interval, x.cell, x.candidates, x.drift_acceleration, x.max_radius,
+    x.near_fit_condition_factor);
 }
 
 void describe(StateArchive& a, RecoveryConfig& x) {

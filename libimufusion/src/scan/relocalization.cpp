@@ -27,6 +27,7 @@ void RelocalizationDriver::forget_ambiguity() {
   ambiguous_correction_.reset();
   ambiguous_alternatives_.clear();
   confirm_next_ = false;
+  near_fit_ = false;
 }
 
 Result<RelocalizationDriver::Outcome> RelocalizationDriver::on_frame(const Frame& frame,
@@ -59,8 +60,8 @@ bool RelocalizationDriver::long_loss(const Frame& frame) const {
 }
 
 // Whether this frame searches for its pose: every relocalization.interval lost frames, the
-// lost frame after a search whose best fit waits for confirmation, and whenever ICP from the
-// seed would end a long loss.
+// lost frame after a search whose best fit waits for confirmation or nearly constrained every
+// direction, and whenever ICP from the seed would end a long loss.
 bool RelocalizationDriver::should_search(const Frame& frame, bool long_loss) {
   if (!frame.lost) {
     lost_frames_since_attempt_ = 0;
@@ -69,9 +70,9 @@ bool RelocalizationDriver::should_search(const Frame& frame, bool long_loss) {
   }
   if (!config_.enabled || !frame.rotation_from_imu) return false;
   if (frame.icp_reliable) return long_loss;
-  const bool confirm = confirm_next_;
-  confirm_next_ = false;
-  if (++lost_frames_since_attempt_ < config_.interval && !confirm) return false;
+  const bool again = confirm_next_ || near_fit_;
+  confirm_next_ = near_fit_ = false;
+  if (++lost_frames_since_attempt_ < config_.interval && !again) return false;
   lost_frames_since_attempt_ = 0;
   return true;
 }
@@ -127,6 +128,7 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
   }
   std::optional<ModelAligner::Placement> best;
   IcpReliabilityThresholds plausible = model.reliability(depth);
+  const double max_condition = plausible.max_condition;
   plausible.max_condition = std::numeric_limits<double>::infinity();
   std::vector<Eigen::Vector3d> fits;       // where the frame fits but for the condition number
   std::vector<Eigen::Vector3d> placed_at;  // where it fits in every direction (reliable)
@@ -139,8 +141,13 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
     auto placed = model.place(depth, T_candidate, candidate_timings);
     if (!placed) return placed.error();
     const IcpResult& icp = placed->icp;
-    if (icp.quality.iterations > 0 && judge_icp(icp.quality, plausible, nullptr))
+    if (icp.quality.iterations > 0 && judge_icp(icp.quality, plausible, nullptr)) {
       fits.push_back(placed->T_world_camera.translation());
+      // A fit that only the condition number fails, narrowly: the next frame searches again.
+      near_fit_ =
+          near_fit_ || (icp.quality.condition > max_condition &&
+                        icp.quality.condition <= config_.near_fit_condition_factor * max_condition);
+    }
     if (!icp.reliable() || !icp.quality.converged) continue;
     placed_at.push_back(placed->T_world_camera.translation());
     if (!best || icp.quality.residual_per_weight < best->icp.quality.residual_per_weight)
@@ -189,7 +196,7 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
 
 void RelocalizationDriver::describe(StateArchive& archive) {
   archive(field_current_, lost_frames_since_attempt_, ambiguous_correction_,
-          ambiguous_alternatives_, confirm_next_);
+          ambiguous_alternatives_, confirm_next_, near_fit_);
   if (archive.reading()) field_ = {};
   if (field_current_) archive(field_);
 }

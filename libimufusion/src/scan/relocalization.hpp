@@ -36,8 +36,9 @@ class RelocalizationDriver {
   explicit RelocalizationDriver(const ReconstructorConfig& config);
 
   /// Counts the lost frames and, where this one searches (every relocalization.interval lost
-  /// frames, the next lost frame after a search whose best fit waits for confirmation, and
-  /// whenever ICP from the seed would end a long loss), runs the search with
+  /// frames, the next lost frame after a search whose best fit waits for confirmation or failed
+  /// only the condition number by at most relocalization.near_fit_condition_factor, and whenever
+  /// ICP from the seed would end a long loss), runs the search with
   /// `model`'s current frame, `depth`. The search's raycasts and ICP add their kernels to
   /// `timings`, their wall time to relocalize_ms only.
   Result<Outcome> on_frame(const Frame& frame, const DepthView& depth, ModelAligner& model,
@@ -69,6 +70,7 @@ class RelocalizationDriver {
   std::optional<Eigen::Vector3d> ambiguous_correction_;
   std::vector<Eigen::Vector3d> ambiguous_alternatives_;
   bool confirm_next_ = false;  // the next lost frame searches to confirm it
+  bool near_fit_ = false;      // the last search's best fit failed only the condition, narrowly
 };
 
 }  // namespace imufusion
