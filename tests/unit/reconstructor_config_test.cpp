@@ -94,6 +94,14 @@ TEST(ReconstructorConfig, RejectsSettingsOutOfRange) {
   EXPECT_FALSE(c.validate().ok());
   c.relocalization.near_fit_condition_factor = 0;  // no search again
   EXPECT_TRUE(c.validate().ok());
+  c.relocalization.turn_step_deg = 120;
+  s = c.validate();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("turn_step_deg"), std::string::npos);
+  c.relocalization.turn_step_deg = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(c.validate().ok());
+  c.relocalization.turn_step_deg = 0;  // no search without the gyroscope
+  EXPECT_TRUE(c.validate().ok());
   c.recovery.agreement_distance = -0.05;
   s = c.validate();
   ASSERT_FALSE(s.ok());

@@ -6,9 +6,13 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <limits>
 #include <optional>
 #include <vector>
 
+#include "inertial_test_fixtures.hpp"
 #include "mesh_test_fixtures.hpp"
 #include "scan/relocalization.hpp"
 
@@ -201,6 +205,165 @@ TEST_F(RelocalizationDriverTest, TheNearFitRetryCanBeTurnedOff) {
   model.fits = {{Fit::kIllConditioned, correction}};
   for (int k = 1; k <= 9; ++k) EXPECT_FALSE(lost_frame(k));
   EXPECT_EQ(model.searches, 1);
+}
+
+// A box room, 2.4 x 1.6 x 1.2 m (z up), and a camera in it that turned and moved while the scan
+// was lost without a gyroscope: the frame's points are the room seen from the true pose, and
+// ICP (scripted) settles only from a seed within its basin around that pose.
+class TurnedRoomModel : public ModelAligner {
+ public:
+  TurnedRoomModel()
+      : volume_(test::make_sdf_volume(
+            [](const Eigen::Vector3d& p) {
+              return std::min({p.x(), 2.4 - p.x(), p.y(), 1.6 - p.y(), p.z(), 1.2 - p.z()});
+            },
+            Eigen::Vector3i(-1, -1, -1), Eigen::Vector3i(16, 11, 8), 0.02f)) {}
+
+  Eigen::Isometry3d truth = Eigen::Isometry3d::Identity();
+  std::vector<Eigen::Isometry3d> seeds;  // where ICP was started
+
+  Status load_frame(const DepthView&, FrameTimings&) override { return {}; }
+  Status set_reference(const Eigen::Isometry3d&, FrameTimings&) override { return {}; }
+  Result<Placement> place(const DepthView&, const Eigen::Isometry3d& seed, FrameTimings&) override {
+    seeds.push_back(seed);
+    const bool in_basin = test::angle_between(seed.linear(), truth.linear()) < 10 * test::kDeg &&
+                          (seed.translation() - truth.translation()).norm() < 0.15;
+    Placement p;
+    p.T_world_camera = in_basin ? truth : seed;
+    IcpQuality& q = p.icp.quality;
+    q.iterations = 5;
+    q.converged = true;
+    q.inliers = 5000;
+    q.inlier_fraction = q.pixel_fraction = in_basin ? 0.9 : 0.1;
+    q.condition = 100;
+    q.residual_per_weight = 1e-6;
+    p.icp.verdict = in_basin ? IcpVerdict::kReliable : IcpVerdict::kUnreliable;
+    return p;
+  }
+  IcpReliabilityThresholds reliability(const DepthView&) const override { return {}; }
+  // The room's surface along a grid of rays within 25 deg of the true camera's axis.
+  Result<std::vector<Eigen::Vector3d>> frame_points(int) override {
+    std::vector<Eigen::Vector3d> points;
+    const Eigen::Vector3d c = truth.translation();
+    for (int i = -10; i <= 10; ++i)
+      for (int j = -10; j <= 10; ++j) {
+        const Eigen::Vector3d ray_camera =
+            Eigen::Vector3d(std::tan(2.5 * i * test::kDeg), std::tan(2.5 * j * test::kDeg), 1)
+                .normalized();
+        const Eigen::Vector3d d = truth.linear() * ray_camera;
+        double t = std::numeric_limits<double>::infinity();
+        const Eigen::Vector3d lo(0, 0, 0), hi(2.4, 1.6, 1.2);
+        for (int a = 0; a < 3; ++a) {
+          if (d[a] > 1e-9) t = std::min(t, (hi[a] - c[a]) / d[a]);
+          if (d[a] < -1e-9) t = std::min(t, (lo[a] - c[a]) / d[a]);
+        }
+        points.push_back(t * ray_camera);
+      }
+    return points;
+  }
+  Result<HostVolume> model_snapshot() const override { return volume_; }
+
+ private:
+  HostVolume volume_;
+};
+
+// An upright camera (y down, z up in the world) at `position`, looking `yaw_deg` from +x.
+Eigen::Isometry3d upright_camera(const Eigen::Vector3d& position, double yaw_deg) {
+  const double yaw = yaw_deg * test::kDeg;
+  const Eigen::Vector3d forward(std::cos(yaw), std::sin(yaw), 0), down(0, 0, -1);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear().col(0) = down.cross(forward);
+  T.linear().col(1) = down;
+  T.linear().col(2) = forward;
+  T.translation() = position;
+  return T;
+}
+
+// The frame lost `k` frames without a gyroscope, at the estimate `T_estimate` (where the scan
+// was lost); the search's outcome.
+std::optional<ModelAligner::Placement> lost_without_gyro(RelocalizationDriver& driver,
+                                                         ModelAligner& model, int k,
+                                                         const Eigen::Isometry3d& T_estimate) {
+  RelocalizationDriver::Frame f;
+  f.timestamp = k / 30.0;
+  f.lost = true;
+  f.rotation_from_imu = false;
+  f.T_world_estimate = T_estimate;
+  f.lost_at = T_estimate.translation();
+  FrameTimings timings;
+  auto out = driver.on_frame(f, DepthView{}, model, timings);
+  EXPECT_TRUE(out.ok());
+  return out.ok() ? out->found : std::nullopt;
+}
+
+TEST(RelocalizationWithoutGyro, TheSearchFindsAFrameThatTurnedAndMovedWhileLost) {
+  TurnedRoomModel model;
+  // Lost facing +x at (0.8, 0.6, 0.6); the camera turned 140 deg and moved 0.5 m since, and
+  // faces the corner of the walls x = 0 and y = 1.6.
+  const Eigen::Isometry3d lost_at = upright_camera(Eigen::Vector3d(0.8, 0.6, 0.6), 0);
+  model.truth = upright_camera(Eigen::Vector3d(1.2, 0.9, 0.6), 140);
+  ReconstructorConfig config;
+  RelocalizationDriver driver(config);
+  for (int k = 1; k <= config.relocalization.interval; ++k)
+    EXPECT_FALSE(lost_without_gyro(driver, model, k, lost_at));
+  // The first search's only fit waits for the next lost frame's search to find it again.
+  EXPECT_FALSE(model.seeds.empty());
+  const std::optional<ModelAligner::Placement> found =
+      lost_without_gyro(driver, model, config.relocalization.interval + 1, lost_at);
+  ASSERT_TRUE(found);
+  EXPECT_LT((found->T_world_camera.translation() - model.truth.translation()).norm(), 1e-9);
+  EXPECT_LT(test::angle_between(found->T_world_camera.linear(), model.truth.linear()), 1e-9);
+  // The best candidate, tried first, is within ICP's basin: the sweep's nearest orientation
+  // (15 deg steps, 5 deg off) and its translation refined on the fine field.
+  ASSERT_FALSE(model.seeds.empty());
+  EXPECT_LT(test::angle_between(model.seeds.front().linear(), model.truth.linear()),
+            7.5 * test::kDeg);
+  EXPECT_LT((model.seeds.front().translation() - model.truth.translation()).norm(), 0.15);
+}
+
+TEST(RelocalizationWithoutGyro, AFitElsewhereRejectsTheBestOne) {
+  // ICP also settles, reliably, at a place 0.6 m away (a like-looking corner): nothing is taken,
+  // however often the frame searches.
+  class TwoCorners : public TurnedRoomModel {
+   public:
+    Result<Placement> place(const DepthView& depth, const Eigen::Isometry3d& seed,
+                            FrameTimings& timings) override {
+      auto p = TurnedRoomModel::place(depth, seed, timings);
+      if (p && !p->icp.reliable() && !alias_placed_) {
+        alias_placed_ = true;
+        p->T_world_camera.translation() = truth.translation() + Eigen::Vector3d(0.6, 0, 0);
+        p->icp.verdict = IcpVerdict::kReliable;
+        p->icp.quality.inlier_fraction = p->icp.quality.pixel_fraction = 0.9;
+      }
+      return p;
+    }
+    Result<std::vector<Eigen::Vector3d>> frame_points(int level) override {
+      alias_placed_ = false;  // each search meets the alias once
+      return TurnedRoomModel::frame_points(level);
+    }
+
+   private:
+    bool alias_placed_ = false;
+  } model;
+  const Eigen::Isometry3d lost_at = upright_camera(Eigen::Vector3d(0.8, 0.6, 0.6), 0);
+  model.truth = upright_camera(Eigen::Vector3d(1.2, 0.9, 0.6), 140);
+  ReconstructorConfig config;
+  RelocalizationDriver driver(config);
+  for (int k = 1; k <= 4 * config.relocalization.interval; ++k)
+    EXPECT_FALSE(lost_without_gyro(driver, model, k, lost_at));
+  EXPECT_FALSE(model.seeds.empty());
+}
+
+TEST(RelocalizationWithoutGyro, NoSearchWithoutTheGyroWhenTheSweepIsOff) {
+  TurnedRoomModel model;
+  const Eigen::Isometry3d lost_at = upright_camera(Eigen::Vector3d(0.8, 0.6, 0.6), 0);
+  model.truth = upright_camera(Eigen::Vector3d(1.2, 0.9, 0.6), 140);
+  ReconstructorConfig config;
+  config.relocalization.turn_step_deg = 0;
+  RelocalizationDriver driver(config);
+  for (int k = 1; k <= 3 * config.relocalization.interval; ++k)
+    EXPECT_FALSE(lost_without_gyro(driver, model, k, lost_at));
+  EXPECT_TRUE(model.seeds.empty());
 }
 
 }  // namespace

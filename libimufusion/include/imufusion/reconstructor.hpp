@@ -79,6 +79,11 @@ struct RelocalizationConfig {
   /// icp.reliability.max_condition, searches again at the next lost frame: the view is leaving
   /// a wall, and the next frame may constrain every direction. 0: off. Default 6.
   double near_fit_condition_factor = 6;
+  /// deg: without the gyroscope the frame's orientation is lost too, and the search also turns
+  /// it about its last tracked vertical (camera y) all the way round in steps of this, each
+  /// tilted by one step up and down, within max_radius of where it was lost. 0: no search
+  /// without the gyroscope. Default 15.
+  double turn_step_deg = 15;
 };
 
 /// How a lost frame settles onto the model again.

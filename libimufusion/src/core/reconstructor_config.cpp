@@ -60,6 +60,9 @@ Status ReconstructorConfig::validate() const {
     return bad("relocalization.cell must be in (0, 1] m, got " + std::to_string(r.cell));
   if (!(r.max_radius >= 0 && r.max_radius <= 10))
     return bad("relocalization.max_radius must be 0..10 m, got " + std::to_string(r.max_radius));
+  if (!(r.turn_step_deg >= 0 && r.turn_step_deg <= 90))
+    return bad("relocalization.turn_step_deg must be 0..90 deg, got " +
+               std::to_string(r.turn_step_deg));
   if (smoothing.retrack_frames < 0 || smoothing.retrack_frames > 100000)
     return bad("smoothing.retrack_frames must be 0..100000, got " +
                std::to_string(smoothing.retrack_frames));

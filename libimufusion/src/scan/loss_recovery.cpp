@@ -135,7 +135,8 @@ void LossRecovery::start_pending(const Frame& frame, const Trajectory& trajector
   T_world_dead.translation() = frame.T_world_seed.translation();
   pending_ = PendingCorrection{{constrained_index_, frame.index, T_world_dead, frame.T_world_camera,
                                 constrained_prior_, partial_},
-                               std::move(lost_depth_)};
+                               std::move(lost_depth_),
+                               navigator != nullptr};
   // The velocity dead reckoning carried out of the loss, corrected by the drift it shows.
   if (navigator && recovery_.correct_velocity) {
     if (const auto dv = end_velocity_error(pending_->end, frame.timestamp, trajectory))
@@ -181,7 +182,8 @@ Result<std::size_t> LossRecovery::settle(Trajectory& trajectory, ModelAligner& m
 // The lost frames kept, placed by ICP backward from the recovery: frame i's seed is frame
 // i+1's placed pose moved by dead reckoning's motion between the two (accurate over a frame
 // however far dead reckoning has drifted), full six-direction ICP as while lost, until a frame
-// is not reliably placed or was not kept. The correction that remains is then measured at the
+// is not reliably placed, was not kept, or (without the IMU) settles farther than
+// recovery.agreement_distance from its seed. The correction that remains is then measured at the
 // oldest frame placed, and only the frames before it are re-estimated by the drift model.
 // Returns that stretch end and the frames placed (index and pose, newest first). Leaves the
 // current frame and, when `moved_reference`, the reference to the caller to restore.
@@ -208,6 +210,13 @@ Result<LossRecovery::Retracked> LossRecovery::retrack(const PendingCorrection& c
     auto placed = model.place(kept, seed, scratch);
     if (!placed) return placed.error();
     if (!placed->icp.reliable() || !placed->icp.quality.converged) break;
+    // Without the IMU the seed is the next frame's pose unmoved: one that settled farther from
+    // it than a recovering frame may (recovery.agreement_distance) slid onto another stretch of
+    // the model in a quick turn.
+    const double limit = recovery_.agreement_distance;
+    if (!c.inertial && limit > 0 &&
+        (placed->T_world_camera.translation() - seed.translation()).norm() > limit)
+      break;
     at.index = i;
     at.estimate = dead_reckoned;
     at.corrected = placed->T_world_camera;
@@ -327,6 +336,8 @@ void LossRecovery::StretchEnd::describe(StateArchive& archive) {
   archive(anchor, index, estimate, corrected, prior, fixed);
 }
 
-void LossRecovery::PendingCorrection::describe(StateArchive& archive) { archive(end, depth); }
+void LossRecovery::PendingCorrection::describe(StateArchive& archive) {
+  archive(end, depth, inertial);
+}
 
 }  // namespace imufusion

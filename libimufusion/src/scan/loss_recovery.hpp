@@ -98,6 +98,7 @@ class LossRecovery {
   struct PendingCorrection {
     StretchEnd end;
     KeptDepth depth;
+    bool inertial = false;  // dead reckoning had the IMU: its motion seeds the backward frames
     void describe(StateArchive& archive);
   };
   using Placed = std::vector<std::pair<std::size_t, Eigen::Isometry3d>>;

@@ -27,6 +27,7 @@ constexpr std::uint32_t kVersion = 8;  // 2: the lens distortion; 3: the referen
                                        // 6: the photometric term's pixel step;
                                        // 7: its least intensity noise;
                                        // 8: relocalization's search after a near fit
+                                       //    and without the gyroscope
 constexpr std::size_t kHeaderBytes = 24;
 
 // Floats in each of the reference maps saved with a scan: four per pixel of the tracking level.

@@ -2,8 +2,11 @@
 
 #include "scan/relocalization.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
+#include <cmath>
 #include <limits>
+#include <numbers>
 #include <utility>
 
 #include "scan/clock.hpp"
@@ -17,7 +20,7 @@ RelocalizationDriver::RelocalizationDriver(const ReconstructorConfig& config)
       max_depth_(config.preprocess.max_depth) {}
 
 void RelocalizationDriver::reset() {
-  field_current_ = false;
+  field_current_ = coarse_current_ = false;
   lost_frames_since_attempt_ = 0;
   forget_ambiguity();
 }
@@ -68,7 +71,7 @@ bool RelocalizationDriver::should_search(const Frame& frame, bool long_loss) {
     forget_ambiguity();
     return false;
   }
-  if (!config_.enabled || !frame.rotation_from_imu) return false;
+  if (!config_.enabled || !(frame.rotation_from_imu || config_.turn_step_deg > 0)) return false;
   if (frame.icp_reliable) return long_loss;
   const bool again = confirm_next_ || near_fit_;
   confirm_next_ = near_fit_ = false;
@@ -78,8 +81,9 @@ bool RelocalizationDriver::should_search(const Frame& frame, bool long_loss) {
 }
 
 // The distance field of the model's surface within a search's reach of `anchor` (world, m):
-// an unbounded scene costs no more than a room.
-Status RelocalizationDriver::build_field(ModelAligner& model, const Eigen::Vector3d& anchor) {
+// an unbounded scene costs no more than a room. With `coarse`, also the field at twice the cell.
+Status RelocalizationDriver::build_field(ModelAligner& model, const Eigen::Vector3d& anchor,
+                                         bool coarse) {
   auto snapshot = model.model_snapshot();
   if (!snapshot) return snapshot.error();
   std::vector<Eigen::Vector3d> surface = volume_surface_points(*snapshot);
@@ -90,21 +94,71 @@ Status RelocalizationDriver::build_field(ModelAligner& model, const Eigen::Vecto
   });
   field_ = SurfaceDistanceField(surface, config_.cell, cutoff);
   field_current_ = true;
+  if (coarse) coarse_field_ = SurfaceDistanceField(surface, 2 * config_.cell, cutoff);
+  coarse_current_ = coarse;
   return {};
 }
 
-// The translation search and ICP from its best candidates; the reliable, converged alignment
-// with the lowest residual per weight, if it is the only place the frame fits: when another
-// candidate's ICP also passes every test but the condition number somewhere else (more than
-// two cells away), the view is ambiguous (a wall and the floor slide along their common line)
-// and nothing is accepted.
+// Without the gyroscope: the 2 x relocalization.candidates best distinct places over
+// orientations turned about the estimate's vertical (camera y) all the way round and tilted about
+// its camera x, one step up and down, swept on the coarse field with a subset of the points;
+// each place's best orientation, its translation refined on the fine field. Twice the
+// candidates: a fit elsewhere is what rejects a wrong place.
+std::vector<RelocalizationDriver::Oriented> RelocalizationDriver::turned_candidates(
+    const std::vector<Eigen::Vector3d>& points, const Eigen::Matrix3d& R_estimate,
+    const Eigen::Vector3d& center, double radius) const {
+  constexpr std::size_t kSweepPoints = 200;  // the sweep's cost is linear in them
+  std::vector<Eigen::Vector3d> few;
+  const std::size_t stride = std::max<std::size_t>(1, points.size() / kSweepPoints);
+  for (std::size_t i = 0; i < points.size(); i += stride) few.push_back(points[i]);
+  const double step = config_.turn_step_deg * std::numbers::pi / 180;
+  const int turns = std::max(1, static_cast<int>(std::lround(2 * std::numbers::pi / step)));
+  const Eigen::Vector3d up = R_estimate.col(1), side = R_estimate.col(0);
+  std::vector<Oriented> swept;
+  for (int k = 0; k < turns; ++k)
+    for (int tilt = -1; tilt <= 1; ++tilt) {
+      const Eigen::Matrix3d R = (Eigen::AngleAxisd(2 * std::numbers::pi * k / turns, up) *
+                                 Eigen::AngleAxisd(tilt * step, side))
+                                    .toRotationMatrix() *
+                                R_estimate;
+      for (const TranslationCandidate& c :
+           coarse_field_.search(few, R, center, radius, 2 * config_.candidates))
+        swept.push_back({R, c});
+    }
+  std::sort(swept.begin(), swept.end(),
+            [](const Oriented& a, const Oriented& b) { return a.at.cost < b.at.cost; });
+  std::vector<Oriented> out;
+  const double apart = 2 * coarse_field_.cell();
+  for (const Oriented& o : swept) {
+    if (static_cast<int>(out.size()) >= 2 * config_.candidates) break;
+    const bool taken = std::any_of(out.begin(), out.end(), [&](const Oriented& q) {
+      return (q.at.translation - o.at.translation).cwiseAbs().maxCoeff() < apart;
+    });
+    if (taken) continue;
+    const std::vector<TranslationCandidate> refined =
+        field_.search(points, o.R_world_camera, o.at.translation, apart, 1);
+    if (!refined.empty()) out.push_back({o.R_world_camera, refined.front()});
+  }
+  return out;
+}
+
+// The translation search (without the gyroscope, over orientations too) and ICP from its best
+// candidates; the reliable, converged alignment with the lowest residual per weight, if it is
+// the only place the frame fits: when another candidate's ICP also passes every test but the
+// condition number somewhere else (more than two cells away), the view is ambiguous (a wall and
+// the floor slide along their common line) and nothing is accepted.
 Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(const Frame& frame,
                                                                             const DepthView& depth,
                                                                             ModelAligner& model,
                                                                             FrameTimings& timings) {
   const auto t0 = Clock::now();
-  if (!field_current_) IMUFUSION_RETURN_IF_ERROR(build_field(model, frame.lost_at));
-  const double radius = drift_radius(frame.timestamp - frame.constrained_time);
+  // Without the gyroscope the orientation is searched too, and the camera may be anywhere a
+  // hand-held scanner goes.
+  const bool turning = !frame.rotation_from_imu;
+  if (!field_current_ || (turning && !coarse_current_))
+    IMUFUSION_RETURN_IF_ERROR(build_field(model, frame.lost_at, turning));
+  const double radius =
+      turning ? config_.max_radius : drift_radius(frame.timestamp - frame.constrained_time);
   auto points = model.frame_points(coarse_level_);
   if (!points) return points.error();
   constexpr std::size_t kMaxPoints = 800;  // enough for a chamfer fit; the search is linear in it
@@ -116,15 +170,21 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
     *points = std::move(kept);
   }
   const Eigen::Isometry3d& T_estimate = frame.T_world_estimate;
-  std::vector<TranslationCandidate> candidates = field_.search(
-      *points, T_estimate.linear(), T_estimate.translation(), radius, config_.candidates);
-  // Dead reckoning may have drifted beyond the search, while a hand-held camera that turns back
-  // to the scanned model is seldom far from where the scan was lost: search there too.
-  if ((frame.lost_at - T_estimate.translation()).norm() > config_.cell) {
-    candidates = merge_candidates(
-        candidates,
-        field_.search(*points, T_estimate.linear(), frame.lost_at, radius, config_.candidates),
-        config_.candidates, 2 * config_.cell);
+  std::vector<Oriented> candidates;
+  if (turning) {
+    candidates = turned_candidates(*points, T_estimate.linear(), frame.lost_at, radius);
+  } else {
+    std::vector<TranslationCandidate> found = field_.search(
+        *points, T_estimate.linear(), T_estimate.translation(), radius, config_.candidates);
+    // Dead reckoning may have drifted beyond the search, while a hand-held camera that turns
+    // back to the scanned model is seldom far from where the scan was lost: search there too.
+    if ((frame.lost_at - T_estimate.translation()).norm() > config_.cell) {
+      found = merge_candidates(
+          found,
+          field_.search(*points, T_estimate.linear(), frame.lost_at, radius, config_.candidates),
+          config_.candidates, 2 * config_.cell);
+    }
+    for (const TranslationCandidate& c : found) candidates.push_back({T_estimate.linear(), c});
   }
   std::optional<ModelAligner::Placement> best;
   IcpReliabilityThresholds plausible = model.reliability(depth);
@@ -133,9 +193,10 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
   std::vector<Eigen::Vector3d> fits;       // where the frame fits but for the condition number
   std::vector<Eigen::Vector3d> placed_at;  // where it fits in every direction (reliable)
   FrameTimings candidate_timings;          // kept out of the frame's ICP and raycast times
-  for (const TranslationCandidate& c : candidates) {
+  for (const auto& [R_candidate, c] : candidates) {
     if (c.near_fraction < plausible.min_inlier_fraction) continue;
-    Eigen::Isometry3d T_candidate = T_estimate;
+    Eigen::Isometry3d T_candidate = Eigen::Isometry3d::Identity();
+    T_candidate.linear() = R_candidate;
     T_candidate.translation() = c.translation;
     // No IMU prediction: the full six-direction solve, which a wall alone cannot pass.
     auto placed = model.place(depth, T_candidate, candidate_timings);
@@ -143,9 +204,10 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
     const IcpResult& icp = placed->icp;
     if (icp.quality.iterations > 0 && judge_icp(icp.quality, plausible, nullptr)) {
       fits.push_back(placed->T_world_camera.translation());
-      // A fit that only the condition number fails, narrowly: the next frame searches again.
+      // A fit that only the condition number fails, narrowly: the next frame searches again
+      // (at the gyro's orientation; a sweep over orientations finds such fits anywhere).
       near_fit_ =
-          near_fit_ || (icp.quality.condition > max_condition &&
+          near_fit_ || (!turning && icp.quality.condition > max_condition &&
                         icp.quality.condition <= config_.near_fit_condition_factor * max_condition);
     }
     if (!icp.reliable() || !icp.quality.converged) continue;
@@ -157,7 +219,25 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
   const auto elsewhere = [&](const Eigen::Vector3d& p) {
     return (p - best->T_world_camera.translation()).norm() > apart;
   };
-  if (best && std::any_of(fits.begin(), fits.end(), elsewhere)) {
+  const auto near = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+    return (a - b).norm() <= apart;
+  };
+  if (turning) {
+    // Free to turn, a view fits a room's like-looking corners and walls: a fit anywhere else
+    // rejects the best one, and the only fit takes the frame once the next search, from the next
+    // lost frame, puts its only fit at the same place.
+    const bool unique = best && std::none_of(fits.begin(), fits.end(), elsewhere);
+    const bool confirmed =
+        unique && ambiguous_correction_ &&
+        near(best->T_world_camera.translation() - T_estimate.translation(), *ambiguous_correction_);
+    confirm_next_ = unique && !confirmed && !ambiguous_correction_;
+    if (unique)
+      ambiguous_correction_ = best->T_world_camera.translation() - T_estimate.translation();
+    else
+      ambiguous_correction_.reset();
+    ambiguous_alternatives_.clear();
+    if (!confirmed) best.reset();
+  } else if (best && std::any_of(fits.begin(), fits.end(), elsewhere)) {
     // An ambiguous view is accepted when the last search of this loss, from another view, put
     // its best fit at the same correction of the estimate and no reliable fit where this one has
     // another: the coincidences of a view (a wall's slide, a stretch of the model not yet
@@ -169,9 +249,6 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
     std::vector<Eigen::Vector3d> others;  // the reliable fits elsewhere, as corrections
     for (const Eigen::Vector3d& p : placed_at)
       if (elsewhere(p)) others.push_back(p - T_estimate.translation());
-    const auto near = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-      return (a - b).norm() <= apart;
-    };
     const bool confirmed =
         ambiguous_correction_ && near(correction, *ambiguous_correction_) &&
         std::none_of(others.begin(), others.end(), [&](const Eigen::Vector3d& a) {
@@ -195,10 +272,11 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
 }
 
 void RelocalizationDriver::describe(StateArchive& archive) {
-  archive(field_current_, lost_frames_since_attempt_, ambiguous_correction_,
+  archive(field_current_, coarse_current_, lost_frames_since_attempt_, ambiguous_correction_,
           ambiguous_alternatives_, confirm_next_, near_fit_);
-  if (archive.reading()) field_ = {};
+  if (archive.reading()) field_ = coarse_field_ = {};
   if (field_current_) archive(field_);
+  if (coarse_current_) archive(coarse_field_);
 }
 
 }  // namespace imufusion

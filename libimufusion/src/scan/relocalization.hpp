@@ -44,16 +44,24 @@ class RelocalizationDriver {
   Result<Outcome> on_frame(const Frame& frame, const DepthView& depth, ModelAligner& model,
                            FrameTimings& timings);
   /// The model changed (a frame was fused): the distance field is built again at the next search.
-  void model_changed() { field_current_ = false; }
+  void model_changed() { field_current_ = coarse_current_ = false; }
   void reset();
   void describe(StateArchive& archive);  // the changing state, for a saved scan
 
  private:
+  // A place the search proposes: the frame's orientation there and its translation.
+  struct Oriented {
+    Eigen::Matrix3d R_world_camera;
+    TranslationCandidate at;
+  };
   double drift_radius(double lost_seconds) const;
   bool long_loss(const Frame& frame) const;
   bool should_search(const Frame& frame, bool long_loss);
   void forget_ambiguity();
-  Status build_field(ModelAligner& model, const Eigen::Vector3d& anchor);
+  Status build_field(ModelAligner& model, const Eigen::Vector3d& anchor, bool coarse);
+  std::vector<Oriented> turned_candidates(const std::vector<Eigen::Vector3d>& points,
+                                          const Eigen::Matrix3d& R_estimate,
+                                          const Eigen::Vector3d& center, double radius) const;
   Result<std::optional<ModelAligner::Placement>> search(const Frame& frame, const DepthView& depth,
                                                         ModelAligner& model, FrameTimings& timings);
 
@@ -64,6 +72,9 @@ class RelocalizationDriver {
   // The model's distance field, built at the first search after the model last changed.
   SurfaceDistanceField field_;
   bool field_current_ = false;
+  // Without the gyroscope: the same at twice the cell, for the sweep over orientations.
+  SurfaceDistanceField coarse_field_;
+  bool coarse_current_ = false;
   int lost_frames_since_attempt_ = 0;
   // World, m: where the last search of this loss put the frame relative to its estimate, when
   // its best fit was not the only one, and its other reliable fits.
