@@ -63,6 +63,35 @@ fs::path synthesize(const fs::path& root, const std::string& name, synth::SceneK
 class ScanTool : public test::ScanToolTest {
  protected:
   ScanTool() : ScanToolTest("imufusion_scan_") {}
+
+  // Wall seed 23 (330 frames: the camera turns back to the room after its wall episode)
+  // scanned with `args` into `name`; checks that every relocalized frame starts a recovery and
+  // that every frame after the episode tracks (more than 10), and returns frames.csv's rows.
+  std::vector<Row> scan_wall_episode(const std::string& name, const std::string& args,
+                                     std::size_t& relocalized) {
+    const fs::path seq = synthesize(scratch_.path(), "wall_long", synth::SceneKind::kWall, 330, 23);
+    const synth::CameraMotion motion(synth::SceneKind::kWall, 23, synth::SynthConfig{}.start_time);
+    const double episode_end = synth::SynthConfig{}.start_time + motion.episode_end();
+    const auto run = scan(seq.string() + " " + args + " --out " + path(name).string() + " --quiet");
+    EXPECT_EQ(run.exit_code, 0) << run.err;
+    const auto rows = read_csv(path(name) / "frames.csv");
+    EXPECT_EQ(rows.size(), 330u);
+    std::size_t after = 0;
+    relocalized = 0;
+    for (const Row& row : rows) {
+      if (row.at("relocalized") == "1") {
+        ++relocalized;
+        EXPECT_EQ(row.at("status"), "recovering") << " t=" << row.at("timestamp");
+        EXPECT_EQ(row.at("fused"), "0") << " t=" << row.at("timestamp");
+      }
+      if (std::stod(row.at("timestamp")) > episode_end) {
+        ++after;
+        EXPECT_EQ(row.at("status"), "tracking") << " t=" << row.at("timestamp");
+      }
+    }
+    EXPECT_GT(after, 10u);
+    return rows;
+  }
 };
 
 TEST_F(ScanTool, ScansARoomWithTheImuAndWritesEveryOutput) {
@@ -247,29 +276,12 @@ TEST_F(ScanTool, WallStretchIsReportedAsLostAndNotFused) {
 // model, tracking resumes for every frame after the episode, and the lost stretch is
 // re-estimated so that the whole trajectory stays within 3 cm.
 TEST_F(ScanTool, WallScanWithTheImuRecoversOntoTheModel) {
-  const fs::path seq = synthesize(scratch_.path(), "wall_long", synth::SceneKind::kWall, 330, 23);
-  const synth::CameraMotion motion(synth::SceneKind::kWall, 23, synth::SynthConfig{}.start_time);
-  const double episode_end = synth::SynthConfig{}.start_time + motion.episode_end();
-  const fs::path out = path("wall_imu");
-  const auto run = scan(seq.string() + " --out " + out.string() + " --quiet");
-  ASSERT_EQ(run.exit_code, 0) << run.err;
-  const auto rows = read_csv(out / "frames.csv");
+  std::size_t relocalized = 0, broken = 0;
+  const auto rows = scan_wall_episode("wall_imu", "", relocalized);
   ASSERT_EQ(rows.size(), 330u);
-  std::size_t after = 0, relocalized = 0, broken = 0;
+  const fs::path seq = path("wall_long"), out = path("wall_imu");
   for (std::size_t i = 1; i < rows.size(); ++i)
     if (rows[i - 1].at("status") == "recovering" && rows[i].at("status") == "lost") ++broken;
-  for (const Row& row : rows) {
-    if (row.at("relocalized") == "1") {
-      ++relocalized;
-      EXPECT_EQ(row.at("status"), "recovering") << " t=" << row.at("timestamp");
-      EXPECT_EQ(row.at("fused"), "0") << " t=" << row.at("timestamp");
-    }
-    if (std::stod(row.at("timestamp")) > episode_end) {
-      ++after;
-      EXPECT_EQ(row.at("status"), "tracking") << " t=" << row.at("timestamp");
-    }
-  }
-  EXPECT_GT(after, 10u);
   const auto summary = read_json(out / "summary.json");
   EXPECT_GE(summary["recoveries"].get<std::size_t>(), 1u);
   EXPECT_GT(summary["lost_frames"].get<std::size_t>(), 30u);
@@ -320,28 +332,10 @@ TEST_F(ScanTool, WallScanWithTheImuRecoversOntoTheModel) {
 // the turn back ends), and every frame after the wall episode tracks. Without that search the
 // scan stays lost to its end (ATE 331 mm; 197 mm with it).
 TEST_F(ScanTool, WallScanWithoutTheImuRelocalizesOverOrientations) {
-  const fs::path seq = synthesize(scratch_.path(), "wall_long", synth::SceneKind::kWall, 330, 23);
-  const synth::CameraMotion motion(synth::SceneKind::kWall, 23, synth::SynthConfig{}.start_time);
-  const double episode_end = synth::SynthConfig{}.start_time + motion.episode_end();
-  const fs::path out = path("wall_noimu");
-  const auto run = scan(seq.string() + " --no-imu --out " + out.string() + " --quiet");
-  ASSERT_EQ(run.exit_code, 0) << run.err;
-  const auto rows = read_csv(out / "frames.csv");
-  ASSERT_EQ(rows.size(), 330u);
-  std::size_t after = 0, relocalized = 0;
-  for (const Row& row : rows) {
-    if (row.at("relocalized") == "1") {
-      ++relocalized;
-      EXPECT_EQ(row.at("status"), "recovering") << " t=" << row.at("timestamp");
-    }
-    if (std::stod(row.at("timestamp")) > episode_end) {
-      ++after;
-      EXPECT_EQ(row.at("status"), "tracking") << " t=" << row.at("timestamp");
-    }
-  }
-  EXPECT_GT(after, 10u);
+  std::size_t relocalized = 0;
+  const auto rows = scan_wall_episode("wall_noimu", "--no-imu", relocalized);
   EXPECT_GE(relocalized, 1u);
-  const auto summary = read_json(out / "summary.json");
+  const auto summary = read_json(path("wall_noimu") / "summary.json");
   EXPECT_EQ(summary["relocalizations"].get<std::size_t>(), relocalized);
   EXPECT_LT(summary["ate"]["rmse"].get<double>(), 0.25) << summary["ate"].dump();
 }

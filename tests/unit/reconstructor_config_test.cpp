@@ -12,6 +12,21 @@
 namespace imufusion {
 namespace {
 
+// `c` with `field` (one of its settings) at `bad`, NaN or infinity is refused, naming `name`;
+// with `off` (0: the feature off) it is valid again, and the setting stays there.
+void expect_checked(ReconstructorConfig& c, double& field, double bad, double off,
+                    const std::string& name) {
+  for (const double value :
+       {bad, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
+    field = value;
+    const auto s = c.validate();
+    ASSERT_FALSE(s.ok()) << name << " = " << value;
+    EXPECT_NE(s.error().message.find(name), std::string::npos) << s.error().message;
+  }
+  field = off;
+  EXPECT_TRUE(c.validate().ok()) << name;
+}
+
 TEST(ReconstructorConfig, RejectsSettingsOutOfRange) {
   ReconstructorConfig c;
   EXPECT_FALSE(c.validate().ok());  // no intrinsics
@@ -70,46 +85,11 @@ TEST(ReconstructorConfig, RejectsSettingsOutOfRange) {
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.error().message.find("smoothing.retrack_frames"), std::string::npos);
   c.smoothing.retrack_frames = 0;
-  c.smoothing.partial_move_sigma = -0.01;
-  s = c.validate();
-  ASSERT_FALSE(s.ok());
-  EXPECT_NE(s.error().message.find("partial_move_sigma"), std::string::npos);
-  c.smoothing.partial_move_sigma = std::numeric_limits<double>::infinity();
-  EXPECT_FALSE(c.validate().ok());
-  c.smoothing.partial_move_sigma = 0;  // the moves not recorded
-  EXPECT_TRUE(c.validate().ok());
-  c.smoothing.retracked_frame_sigma = -0.003;
-  s = c.validate();
-  ASSERT_FALSE(s.ok());
-  EXPECT_NE(s.error().message.find("retracked_frame_sigma"), std::string::npos);
-  c.smoothing.retracked_frame_sigma = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_FALSE(c.validate().ok());
-  c.smoothing.retracked_frame_sigma = 0;  // the oldest frame placed is the end
-  EXPECT_TRUE(c.validate().ok());
-  c.relocalization.near_fit_condition_factor = -1;
-  s = c.validate();
-  ASSERT_FALSE(s.ok());
-  EXPECT_NE(s.error().message.find("near_fit_condition_factor"), std::string::npos);
-  c.relocalization.near_fit_condition_factor = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_FALSE(c.validate().ok());
-  c.relocalization.near_fit_condition_factor = 0;  // no search again
-  EXPECT_TRUE(c.validate().ok());
-  c.relocalization.turn_step_deg = 120;
-  s = c.validate();
-  ASSERT_FALSE(s.ok());
-  EXPECT_NE(s.error().message.find("turn_step_deg"), std::string::npos);
-  c.relocalization.turn_step_deg = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_FALSE(c.validate().ok());
-  c.relocalization.turn_step_deg = 0;  // no search without the gyroscope
-  EXPECT_TRUE(c.validate().ok());
-  c.recovery.agreement_distance = -0.05;
-  s = c.validate();
-  ASSERT_FALSE(s.ok());
-  EXPECT_NE(s.error().message.find("recovery.agreement_distance"), std::string::npos);
-  c.recovery.agreement_distance = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_FALSE(c.validate().ok());
-  c.recovery.agreement_distance = 0;  // no check
-  EXPECT_TRUE(c.validate().ok());
+  expect_checked(c, c.smoothing.partial_move_sigma, -0.01, 0, "partial_move_sigma");
+  expect_checked(c, c.smoothing.retracked_frame_sigma, -0.003, 0, "retracked_frame_sigma");
+  expect_checked(c, c.relocalization.near_fit_condition_factor, -1, 0, "near_fit_condition_factor");
+  expect_checked(c, c.relocalization.turn_step_deg, 120, 0, "turn_step_deg");
+  expect_checked(c, c.recovery.agreement_distance, -0.05, 0, "recovery.agreement_distance");
   c.initial_pose.translation().x() = std::numeric_limits<double>::infinity();
   EXPECT_FALSE(c.validate().ok());
 }

@@ -159,15 +159,18 @@ std::vector<TranslationCandidate> merge_candidates(const std::vector<Translation
   std::stable_sort(
       all.begin(), all.end(),
       [](const TranslationCandidate& x, const TranslationCandidate& y) { return x.cost < y.cost; });
-  std::vector<TranslationCandidate> out;
-  for (const TranslationCandidate& c : all) {
-    if (static_cast<int>(out.size()) >= count) break;
-    if (std::none_of(out.begin(), out.end(), [&](const TranslationCandidate& kept) {
-          return (kept.translation - c.translation).cwiseAbs().maxCoeff() < separation;
-        }))
-      out.push_back(c);
-  }
-  return out;
+  return distinct_places(all, count, separation,
+                         [](const TranslationCandidate& c) { return c.translation; });
+}
+
+std::vector<Eigen::Vector3d> spread_subset(const std::vector<Eigen::Vector3d>& points,
+                                           std::size_t count) {
+  if (points.size() <= count) return points;
+  std::vector<Eigen::Vector3d> kept;
+  const double stride = static_cast<double>(points.size()) / static_cast<double>(count);
+  for (std::size_t i = 0; i < count; ++i)
+    kept.push_back(points[static_cast<std::size_t>(static_cast<double>(i) * stride)]);
+  return kept;
 }
 
 std::vector<Eigen::Vector3d> volume_surface_points(const HostVolume& volume) {

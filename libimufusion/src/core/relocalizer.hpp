@@ -64,6 +64,26 @@ std::vector<TranslationCandidate> merge_candidates(const std::vector<Translation
                                                    const std::vector<TranslationCandidate>& b,
                                                    int count, double separation);
 
+/// The items of `sorted` (lowest cost first) in order, each kept unless a kept one lies closer
+/// than `separation` along every axis, until `count` are kept; `place(item)` is its translation.
+template <class T, class Place>
+std::vector<T> distinct_places(const std::vector<T>& sorted, int count, double separation,
+                               Place place) {
+  std::vector<T> out;
+  for (const T& item : sorted) {
+    if (static_cast<int>(out.size()) >= count) break;
+    if (std::none_of(out.begin(), out.end(), [&](const T& kept) {
+          return (place(kept) - place(item)).cwiseAbs().maxCoeff() < separation;
+        }))
+      out.push_back(item);
+  }
+  return out;
+}
+
+/// At most `count` of `points`, spread evenly over their order; all of them when fewer.
+std::vector<Eigen::Vector3d> spread_subset(const std::vector<Eigen::Vector3d>& points,
+                                           std::size_t count);
+
 /// World points of the zero crossing of a TSDF snapshot: the voxels observed (weight > 0) with
 /// |tsdf| below half the truncation band, one point per voxel.
 std::vector<Eigen::Vector3d> volume_surface_points(const HostVolume& volume);

@@ -116,7 +116,7 @@ void IcpKernels::record_photometric(CommandSequence& seq, const IcpMaps& current
   params.color_width = static_cast<std::uint32_t>(colors.current_width);
   params.color_shift = static_cast<std::uint32_t>(level);
   params.huber = huber;
-  params.step = static_cast<std::uint32_t>(std::max(1, colors.config.pixel_step));
+  params.step = static_cast<std::uint32_t>(colors.step());
   const std::uint32_t samples_x = (params.width + params.step - 1) / params.step;
   const std::uint32_t samples_y = (params.height + params.step - 1) / params.step;
   const std::string suffix = "[" + std::to_string(level) + "]";
@@ -213,7 +213,7 @@ Result<NormalEquations> GpuNormalEquationSource::evaluate(int level,
   if (colors_.sigma != nullptr && photo->weight_sum > 0)
     *colors_.sigma = std::sqrt(photo->btb / photo->weight_sum);
   // Each sampled row stands for the pixel_step^2 pixels around it.
-  const double step = std::max(1, colors_.config.pixel_step);
+  const double step = colors_.step();
   add_photometric(*eq, *photo, colors_.config.weight * step * step,
                   kernels_.depth_noise().a * kernels_.depth_noise().a,
                   colors_.config.min_sigma * colors_.config.min_sigma);

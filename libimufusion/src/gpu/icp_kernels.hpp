@@ -2,6 +2,7 @@
 // The ICP kernels' dispatcher: projective association (icp_associate) and the first reduction
 // stage (icp_reduce) on the GPU, the second stage on the host in double.
 
+#include <algorithm>
 #include <memory>
 #include <vector>
 
@@ -22,6 +23,8 @@ struct PhotometricMaps {
   int current_width = 0;
   const Buffer* reference = nullptr;
   IcpPhotometricConfig config;
+  /// config.pixel_step, at least 1: every step-th pixel in x and y is sampled.
+  int step() const { return std::max(1, config.pixel_step); }
   /// The RMS photometric residual of the last evaluation (intensity), which scales the next one's
   /// Huber threshold; read and updated when given, 0 before any.
   double* sigma = nullptr;

@@ -27,7 +27,7 @@ void RelocalizationDriver::reset() {
 
 // A loss ended or the scan restarted: nothing waits for confirmation.
 void RelocalizationDriver::forget_ambiguity() {
-  ambiguous_correction_.reset();
+  unconfirmed_correction_.reset();
   ambiguous_alternatives_.clear();
   confirm_next_ = false;
   near_fit_ = false;
@@ -108,9 +108,7 @@ std::vector<RelocalizationDriver::Oriented> RelocalizationDriver::turned_candida
     const std::vector<Eigen::Vector3d>& points, const Eigen::Matrix3d& R_estimate,
     const Eigen::Vector3d& center, double radius) const {
   constexpr std::size_t kSweepPoints = 200;  // the sweep's cost is linear in them
-  std::vector<Eigen::Vector3d> few;
-  const std::size_t stride = std::max<std::size_t>(1, points.size() / kSweepPoints);
-  for (std::size_t i = 0; i < points.size(); i += stride) few.push_back(points[i]);
+  const std::vector<Eigen::Vector3d> few = spread_subset(points, kSweepPoints);
   const double step = config_.turn_step_deg * std::numbers::pi / 180;
   const int turns = std::max(1, static_cast<int>(std::lround(2 * std::numbers::pi / step)));
   const Eigen::Vector3d up = R_estimate.col(1), side = R_estimate.col(0);
@@ -127,14 +125,10 @@ std::vector<RelocalizationDriver::Oriented> RelocalizationDriver::turned_candida
     }
   std::sort(swept.begin(), swept.end(),
             [](const Oriented& a, const Oriented& b) { return a.at.cost < b.at.cost; });
-  std::vector<Oriented> out;
   const double apart = 2 * coarse_field_.cell();
-  for (const Oriented& o : swept) {
-    if (static_cast<int>(out.size()) >= 2 * config_.candidates) break;
-    const bool taken = std::any_of(out.begin(), out.end(), [&](const Oriented& q) {
-      return (q.at.translation - o.at.translation).cwiseAbs().maxCoeff() < apart;
-    });
-    if (taken) continue;
+  std::vector<Oriented> out;
+  for (const Oriented& o : distinct_places(swept, 2 * config_.candidates, apart,
+                                           [](const Oriented& x) { return x.at.translation; })) {
     const std::vector<TranslationCandidate> refined =
         field_.search(points, o.R_world_camera, o.at.translation, apart, 1);
     if (!refined.empty()) out.push_back({o.R_world_camera, refined.front()});
@@ -159,29 +153,23 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
     IMUFUSION_RETURN_IF_ERROR(build_field(model, frame.lost_at, turning));
   const double radius =
       turning ? config_.max_radius : drift_radius(frame.timestamp - frame.constrained_time);
-  auto points = model.frame_points(coarse_level_);
-  if (!points) return points.error();
+  auto all_points = model.frame_points(coarse_level_);
+  if (!all_points) return all_points.error();
   constexpr std::size_t kMaxPoints = 800;  // enough for a chamfer fit; the search is linear in it
-  if (points->size() > kMaxPoints) {
-    std::vector<Eigen::Vector3d> kept;
-    const double stride = static_cast<double>(points->size()) / kMaxPoints;
-    for (std::size_t i = 0; i < kMaxPoints; ++i)
-      kept.push_back((*points)[static_cast<std::size_t>(static_cast<double>(i) * stride)]);
-    *points = std::move(kept);
-  }
+  const std::vector<Eigen::Vector3d> points = spread_subset(*all_points, kMaxPoints);
   const Eigen::Isometry3d& T_estimate = frame.T_world_estimate;
   std::vector<Oriented> candidates;
   if (turning) {
-    candidates = turned_candidates(*points, T_estimate.linear(), frame.lost_at, radius);
+    candidates = turned_candidates(points, T_estimate.linear(), frame.lost_at, radius);
   } else {
     std::vector<TranslationCandidate> found = field_.search(
-        *points, T_estimate.linear(), T_estimate.translation(), radius, config_.candidates);
+        points, T_estimate.linear(), T_estimate.translation(), radius, config_.candidates);
     // Dead reckoning may have drifted beyond the search, while a hand-held camera that turns
     // back to the scanned model is seldom far from where the scan was lost: search there too.
     if ((frame.lost_at - T_estimate.translation()).norm() > config_.cell) {
       found = merge_candidates(
           found,
-          field_.search(*points, T_estimate.linear(), frame.lost_at, radius, config_.candidates),
+          field_.search(points, T_estimate.linear(), frame.lost_at, radius, config_.candidates),
           config_.candidates, 2 * config_.cell);
     }
     for (const TranslationCandidate& c : found) candidates.push_back({T_estimate.linear(), c});
@@ -222,19 +210,22 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
   const auto near = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
     return (a - b).norm() <= apart;
   };
+  // Where the best fit puts the frame relative to its estimate (world).
+  const Eigen::Vector3d correction =
+      best ? Eigen::Vector3d(best->T_world_camera.translation() - T_estimate.translation())
+           : Eigen::Vector3d::Zero();
   if (turning) {
     // Free to turn, a view fits a room's like-looking corners and walls: a fit anywhere else
     // rejects the best one, and the only fit takes the frame once the next search, from the next
     // lost frame, puts its only fit at the same place.
     const bool unique = best && std::none_of(fits.begin(), fits.end(), elsewhere);
     const bool confirmed =
-        unique && ambiguous_correction_ &&
-        near(best->T_world_camera.translation() - T_estimate.translation(), *ambiguous_correction_);
-    confirm_next_ = unique && !confirmed && !ambiguous_correction_;
+        unique && unconfirmed_correction_ && near(correction, *unconfirmed_correction_);
+    confirm_next_ = unique && !confirmed && !unconfirmed_correction_;
     if (unique)
-      ambiguous_correction_ = best->T_world_camera.translation() - T_estimate.translation();
+      unconfirmed_correction_ = correction;
     else
-      ambiguous_correction_.reset();
+      unconfirmed_correction_.reset();
     ambiguous_alternatives_.clear();
     if (!confirmed) best.reset();
   } else if (best && std::any_of(fits.begin(), fits.end(), elsewhere)) {
@@ -244,25 +235,23 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
     // scanned) change from view to view; the camera's place and a repeated structure do not. A
     // fit that is only ill-conditioned barely moves along its slide from where the search
     // started it, so its place says nothing either way.
-    const Eigen::Vector3d correction =
-        best->T_world_camera.translation() - T_estimate.translation();
     std::vector<Eigen::Vector3d> others;  // the reliable fits elsewhere, as corrections
     for (const Eigen::Vector3d& p : placed_at)
       if (elsewhere(p)) others.push_back(p - T_estimate.translation());
     const bool confirmed =
-        ambiguous_correction_ && near(correction, *ambiguous_correction_) &&
+        unconfirmed_correction_ && near(correction, *unconfirmed_correction_) &&
         std::none_of(others.begin(), others.end(), [&](const Eigen::Vector3d& a) {
           return std::any_of(ambiguous_alternatives_.begin(), ambiguous_alternatives_.end(),
                              [&](const Eigen::Vector3d& b) { return near(a, b); });
         });
     // The first ambiguous search of a run has the next lost frame confirm it; a confirmation
     // that failed waits for the next regular search.
-    confirm_next_ = !confirmed && !ambiguous_correction_;
-    ambiguous_correction_ = correction;
+    confirm_next_ = !confirmed && !unconfirmed_correction_;
+    unconfirmed_correction_ = correction;
     ambiguous_alternatives_ = std::move(others);
     if (!confirmed) best.reset();
   } else {
-    ambiguous_correction_.reset();
+    unconfirmed_correction_.reset();
     ambiguous_alternatives_.clear();
   }
   timings.kernels.insert(timings.kernels.end(), candidate_timings.kernels.begin(),
@@ -272,7 +261,7 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
 }
 
 void RelocalizationDriver::describe(StateArchive& archive) {
-  archive(field_current_, coarse_current_, lost_frames_since_attempt_, ambiguous_correction_,
+  archive(field_current_, coarse_current_, lost_frames_since_attempt_, unconfirmed_correction_,
           ambiguous_alternatives_, confirm_next_, near_fit_);
   if (archive.reading()) field_ = coarse_field_ = {};
   if (field_current_) archive(field_);

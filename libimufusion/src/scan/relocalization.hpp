@@ -77,8 +77,9 @@ class RelocalizationDriver {
   bool coarse_current_ = false;
   int lost_frames_since_attempt_ = 0;
   // World, m: where the last search of this loss put the frame relative to its estimate, when
-  // its best fit was not the only one, and its other reliable fits.
-  std::optional<Eigen::Vector3d> ambiguous_correction_;
+  // its best fit waits for confirmation (not the only one; without the gyroscope, any), and
+  // its other reliable fits.
+  std::optional<Eigen::Vector3d> unconfirmed_correction_;
   std::vector<Eigen::Vector3d> ambiguous_alternatives_;
   bool confirm_next_ = false;  // the next lost frame searches to confirm it
   bool near_fit_ = false;      // the last search's best fit failed only the condition, narrowly
