@@ -98,7 +98,10 @@ Status Reconstructor::Impl::submit_fuse_and_reference(const Eigen::Isometry3d& T
                                      model.shaded, model.colors);
   if (recorded.ok() && !keep_reference)
     reference.record_maps_from(fuse_seq, model.vertices, model.normals, tracking_level);
-  if (!keep_reference) reference_has_color = recorded.ok();
+  if (!keep_reference) {
+    reference_has_color = recorded.ok();
+    reference_is_frame = false;
+  }
   auto t = fuse_seq.submit_and_wait();  // ends the recording also after a failed record
   IMUFUSION_RETURN_IF_ERROR(recorded);
   if (!t) return t.error();
@@ -265,9 +268,10 @@ Result<LossRecovery::Frame> Reconstructor::Impl::track_frame(double timestamp,
 void Reconstructor::Impl::note_decision(const TrackingDecision& decision, const IcpResult& icp,
                                         bool was_lost, const StampedPose& previous,
                                         FrameResult& r) {
-  // A frame accepted for its agreement with the IMU paired less than the reference asks for.
+  // A frame accepted for its agreement with the IMU paired less than the reference asks for; a
+  // frame aligned to the first frame's own maps paired more than a model raycast offers.
   if (decision.status == TrackingStatus::kTracking && decision.source == PoseSource::kIcp &&
-      !icp.quality.agreed_with_seed) {
+      !icp.quality.agreed_with_seed && !reference_is_frame) {
     pairing.add(icp.quality.inlier_fraction, icp.quality.pixel_fraction);
     // Only against a whole prediction: the first frames' translation sigma is a bound.
     if (icp.quality.seed_chi2 > 0 && icp.quality.seed_gated_directions == 0 &&
@@ -307,8 +311,10 @@ Status Reconstructor::Impl::fuse_and_record(const TrackingDecision& decision, do
     ++fused_frames;
     relocalization.model_changed();
   }
-  if (decision.source == PoseSource::kInitial && decision.fuse)
+  if (decision.source == PoseSource::kInitial && decision.fuse) {
     IMUFUSION_RETURN_IF_ERROR(pair_with_own_model(r.timings));
+    IMUFUSION_RETURN_IF_ERROR(reference_from_first_frame(r.timings));
+  }
   trajectory.push_back({timestamp, r.T_world_camera});
   return {};
 }
@@ -444,6 +450,7 @@ Status Reconstructor::reset() {
   if (m.navigator) m.navigator->reset();
   m.trajectory.clear();
   m.has_reference = false;
+  m.reference_is_frame = false;
   m.reference_has_color = false;
   m.photometric_sigma = 0;
   m.reference_age = 0;

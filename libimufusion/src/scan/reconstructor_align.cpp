@@ -24,6 +24,26 @@ Status Reconstructor::Impl::pair_with_own_model(FrameTimings& timings) {
   return {};
 }
 
+// The second frame is aligned to the first frame's own filtered maps, not to the model raycast:
+// a model fused from one raw frame shows its noise, and a frame pairs a fraction of it
+// (bench/README.md, "The first alignment against the first frame itself"). model.vertices and
+// model.normals take the maps too, the reference a saved scan keeps.
+Status Reconstructor::Impl::reference_from_first_frame(FrameTimings& timings) {
+  const auto t0 = Clock::now();
+  IMUFUSION_RETURN_IF_ERROR(fuse_seq.begin());
+  const gpu::Buffer& vertices = current.vertices(tracking_level);
+  const gpu::Buffer& normals = current.normals(tracking_level);
+  fuse_seq.copy(vertices, model.vertices, vertices.size(), "first_frame_reference");
+  fuse_seq.copy(normals, model.normals, normals.size(), "first_frame_reference");
+  reference.record_maps_from(fuse_seq, model.vertices, model.normals, tracking_level);
+  auto t = fuse_seq.submit_and_wait();
+  if (!t) return t.error();
+  timings.kernels.insert(timings.kernels.end(), t->begin(), t->end());
+  timings.raycast_ms += ms_since(t0);
+  reference_is_frame = true;
+  return {};
+}
+
 std::size_t Reconstructor::Impl::valid_depth_pixels(const DepthView& depth) const {
   std::size_t n = 0;
   for (int v = 0; v < depth.height; ++v)

@@ -77,6 +77,9 @@ struct Reconstructor::Impl final : ModelAligner {
   LossRecovery recovery;                // the stretch since the last fully constrained frame
   Eigen::Isometry3d T_world_reference = Eigen::Isometry3d::Identity();  // pose of the raycast
   bool has_reference = false;
+  // The reference holds the scan's first frame's own maps (reference_from_first_frame), not a
+  // model raycast.
+  bool reference_is_frame = false;
   int reference_age = 0;         // frames tracked since the reference's raycast
   std::size_t fused_frames = 0;  // frames fused into the model (the first frame's included)
   // The incoming frame's median depth (m), once median_depth computed it for that depth image.
@@ -118,6 +121,7 @@ struct Reconstructor::Impl final : ModelAligner {
 
   // The alignment of a frame (reconstructor_align.cpp).
   Status pair_with_own_model(FrameTimings& timings);
+  Status reference_from_first_frame(FrameTimings& timings);
   std::size_t valid_depth_pixels(const DepthView& depth) const;
   double median_depth(const DepthView& depth);
   double tracking_image_motion(double rotation, double translation, double z) const;

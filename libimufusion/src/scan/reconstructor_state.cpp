@@ -21,13 +21,14 @@ namespace imufusion {
 namespace {
 
 constexpr std::array<char, 8> kMagic = {'I', 'M', 'U', 'F', 'S', 'C', 'A', 'N'};
-constexpr std::uint32_t kVersion = 8;  // 2: the lens distortion; 3: the reference's reuse;
+constexpr std::uint32_t kVersion = 9;  // 2: the lens distortion; 3: the reference's reuse;
                                        // 4: relocalization's confirmation of an ambiguous fit;
                                        // 5: ICP's photometric term, the reference's colours;
                                        // 6: the photometric term's pixel step;
                                        // 7: its least intensity noise;
                                        // 8: relocalization's search after a near fit
-                                       //    and without the gyroscope
+                                       //    and without the gyroscope;
+                                       // 9: the first frame's own maps as the reference
 constexpr std::size_t kHeaderBytes = 24;
 
 // Floats in each of the reference maps saved with a scan: four per pixel of the tracking level.
@@ -78,8 +79,8 @@ Result<std::span<const std::uint8_t>> payload_of(const std::filesystem::path& pa
 
 void Reconstructor::Impl::describe_state(StateArchive& a) {
   Impl& m = *this;
-  a(m.trajectory, m.T_world_reference, m.has_reference, m.reference_age, m.fused_frames,
-    m.seed_gate_holding, m.frame_interval, m.tracked_run, m.machine, m.pairing,
+  a(m.trajectory, m.T_world_reference, m.has_reference, m.reference_is_frame, m.reference_age,
+    m.fused_frames, m.seed_gate_holding, m.frame_interval, m.tracked_run, m.machine, m.pairing,
     m.prediction_calibration, m.relocalization, m.recovery, m.photometric_sigma);
   bool inertial = m.navigator.has_value();
   a(inertial);
