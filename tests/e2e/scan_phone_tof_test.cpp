@@ -1,7 +1,9 @@
 // imufusion-scan --sensor phone-tof on a short sequence of the generator's phone ToF model
 // (240x180, 1 % of depth noise, flying pixels): the preset tracks every frame to a few
 // millimetres, with and without the IMU, where the Kinect preset on the same frames loses them
-// (its depth noise, a fifth of the ToF model's at 1 m, rejects most pairs as too far off-normal).
+// without the IMU (its depth noise, a fifth of the ToF model's at 1 m, rejects most pairs as too
+// far off-normal; with the IMU it keeps them, pairing 26 % of the pixels against the ToF
+// preset's 60 %).
 
 #include <gtest/gtest.h>
 
@@ -50,7 +52,7 @@ TEST_F(ScanPhoneToF, ThePresetTracksEveryFrameWhereTheKinectPresetLosesThem) {
     EXPECT_EQ(tof["frames_fused"].get<double>(), 40.0) << imu;
     EXPECT_LT(tof["ate"]["rmse"].get<double>(), 0.005) << imu << tof["ate"].dump();
   }
-  const nlohmann::json kinect = scan_with(seq, "--sensor kinect", "kinect");
+  const nlohmann::json kinect = scan_with(seq, "--sensor kinect --no-imu", "kinect");
   EXPECT_LT(kinect["frames_fused"].get<double>(), 20.0);
   EXPECT_GT(kinect["ate"]["rmse"].get<double>(), 0.05) << kinect["ate"].dump();
 }
