@@ -123,6 +123,7 @@ inline void write_frame_counts(const ScanStatistics& stats, const Reconstructor&
   j["broken_recoveries"] = stats.broken_recoveries;
   j["relocalizations"] = stats.relocalizations;
   j["recovery_restarts"] = stats.recovery_restarts;
+  j["restarts"] = stats.restarts;
   j["retracked_frames"] = stats.retracked;
   j["frames_to_recover"] = stats.recovery_frames;
   j["mean_icp_iterations"] = stats.mean_icp_iterations;

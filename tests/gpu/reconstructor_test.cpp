@@ -306,6 +306,51 @@ TEST_F(ReconstructorTest, ResetStartsANewScan) {
   EXPECT_TRUE(r->T_world_camera.isApprox(Eigen::Isometry3d::Identity()));
 }
 
+// The first frame sees something else (a board 50 cm ahead); without the IMU no later frame
+// aligns to the model it made. After restart_lost_frames lost frames the scan starts again at
+// the incoming frame, from the pose it was lost at, on a new model, and tracks the rest; with
+// restarts off it stays lost to its end.
+TEST_F(ReconstructorTest, AScanLostFromItsStartStartsAgain) {
+  for (const int restart_after : {10, 0}) {
+    ReconstructorConfig c = config(false, 30);
+    c.tracking.restart_lost_frames = restart_after;
+    Reconstructor rec = make(c);
+    std::vector<FrameResult> results;
+    for (std::size_t i = 0; i < frames_.size(); ++i) {
+      DepthImage depth = frames_[i].depth;
+      if (i == 0)
+        std::fill(depth.data.begin(), depth.data.end(),
+                  static_cast<std::uint16_t>(0.5 * depth.depth_scale));
+      auto r = rec.track_and_fuse(frames_[i].timestamp, depth, nullptr, frames_[i].imu);
+      ASSERT_TRUE(r.ok()) << r.error().describe();
+      results.push_back(*r);
+    }
+    for (std::size_t i = 1; i <= 10; ++i)
+      EXPECT_EQ(results[i].status, TrackingStatus::kLost) << restart_after << " frame " << i;
+    if (restart_after == 0) {
+      for (std::size_t i = 11; i < results.size(); ++i) {
+        EXPECT_FALSE(results[i].restarted);
+        EXPECT_NE(results[i].status, TrackingStatus::kTracking) << "frame " << i;
+      }
+      continue;
+    }
+    const FrameResult& start = results[11];
+    EXPECT_TRUE(start.restarted);
+    EXPECT_EQ(start.source, PoseSource::kInitial);
+    EXPECT_TRUE(start.fused);
+    EXPECT_TRUE(start.T_world_camera.isApprox(results[10].T_world_camera));
+    for (std::size_t i = 12; i < results.size(); ++i) {
+      EXPECT_FALSE(results[i].restarted) << "frame " << i;
+      EXPECT_EQ(results[i].status, TrackingStatus::kTracking)
+          << "frame " << i << ": " << results[i].icp.reason;
+    }
+    // From the restart on, the trajectory is the truth's up to one rigid motion.
+    const Trajectory& all = rec.trajectory();
+    const Trajectory restarted(all.begin() + 11, all.end());
+    EXPECT_LT(ate(restarted), 0.01);
+  }
+}
+
 // Wall seed 201 starts facing the room with most of its view beyond 2 m, where the normals of
 // noisy depth scatter past ICP's normal-angle gate however well the frame is aligned: counted by
 // pixels, 37-40 % were paired and the scan was lost from its second frame. Counted by their

@@ -43,6 +43,15 @@ TEST(ReconstructorConfig, RejectsSettingsOutOfRange) {
   EXPECT_NE(s.error().message.find("constant_velocity_pairs"), std::string::npos);
   c.tracking.constant_velocity_pairs = 0;  // the previous pose as the seed
   EXPECT_TRUE(c.validate().ok());
+  c.tracking.restart_lost_frames = -1;
+  s = c.validate();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("restart_lost_frames"), std::string::npos);
+  c.tracking.restart_lost_frames = 0;  // never
+  c.tracking.restart_model_frames = -2;
+  EXPECT_FALSE(c.validate().ok());
+  c.tracking.restart_model_frames = 0;
+  EXPECT_TRUE(c.validate().ok());
   for (const int level : {-2, c.preprocess.levels}) {
     c.tracking_level = level;
     s = c.validate();

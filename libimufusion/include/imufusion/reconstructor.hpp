@@ -180,6 +180,9 @@ struct FrameResult {
   /// This recovering frame disagreed with the ones counted before it and started the recovery's
   /// count again (ReconstructorConfig::recovery.agreement_distance).
   bool recovery_restarted = false;
+  /// The scan started again at this frame on a new model, from the last frame's pose, after a
+  /// loss at its start (TrackingConfig::restart_lost_frames); the earlier frames keep their poses.
+  bool restarted = false;
   /// The model was raycast from this frame's pose as the next frame's ICP reference; false when
   /// the reference before it still serves (ReconstructorConfig::reference_frames).
   bool new_reference = false;

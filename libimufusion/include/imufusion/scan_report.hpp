@@ -38,6 +38,7 @@ struct ScanStatistics {
   std::size_t partial = 0;  // frames with pose source icp_partial (degenerate depth, IMU-aided)
   std::size_t relocalizations = 0;    // frames placed by the relocalization search
   std::size_t recovery_restarts = 0;  // recovering frames that started the count again
+  std::size_t restarts = 0;           // frames the scan started again at (FrameResult::restarted)
   std::size_t retracked = 0;          // lost frames placed by ICP backward from their recovery
   std::size_t new_references = 0;     // frames after which the model was raycast as the reference
   /// Fused frames with blocks the full block pool had no room for (partly fused), and the

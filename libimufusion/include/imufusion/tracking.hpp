@@ -54,6 +54,13 @@ struct TrackingConfig {
   /// Consecutive reliable, converged frames after a loss before fusion resumes (hysteresis: one
   /// lucky alignment against a half-seen model must not smear a wrong pose into the volume).
   int recovery_frames = 3;
+  /// A scan lost for `restart_lost_frames` frames in a row while its model holds at most
+  /// `restart_model_frames` fused frames starts again at the current frame, from its current
+  /// pose, on a new model: a start that never tracked (a hand or a blur in the first frame) has
+  /// no model worth searching for. Default 10 (a third of a second at 30 fps: two relocalization
+  /// searches) and 3 (the frames a recovery needs); 0: never.
+  int restart_lost_frames = 10;
+  int restart_model_frames = 3;
   /// The pairing test follows what aligned frames of this scan pair: a frame must pair at least
   /// `pairing_ratio` of the median over the last `pairing_window` frames ICP tracked in all six
   /// directions, where that is below IcpReliabilityThresholds' min_inlier_fraction /

@@ -33,6 +33,10 @@ Status ReconstructorConfig::validate() const {
   if (tracking.prediction_window < 0)
     return bad("tracking.prediction_window must be non-negative, got " +
                std::to_string(tracking.prediction_window));
+  if (tracking.restart_lost_frames < 0 || tracking.restart_model_frames < 0)
+    return bad("tracking.restart_lost_frames and restart_model_frames must be non-negative, got " +
+               std::to_string(tracking.restart_lost_frames) + " and " +
+               std::to_string(tracking.restart_model_frames));
   if (tracking.constant_velocity_pairs < 0)
     return bad("tracking.constant_velocity_pairs must be non-negative, got " +
                std::to_string(tracking.constant_velocity_pairs));

@@ -83,6 +83,7 @@ void ScanSummary::add(const FrameResult& f) {
   if (f.source == PoseSource::kIcpPartial) ++s.partial;
   if (f.relocalized) ++s.relocalizations;
   if (f.recovery_restarted) ++s.recovery_restarts;
+  if (f.restarted) ++s.restarts;
   if (i > 0 && f.status == TrackingStatus::kLost && previous_status_ == TrackingStatus::kRecovering)
     ++s.broken_recoveries;
   previous_status_ = f.status;

@@ -186,7 +186,8 @@ void Reconstructor::Impl::note_motion(bool tracked, double timestamp,
 }
 
 // The scan starts at its first frame with depth enough to track against; before it, the frame
-// waits at the initial pose, lost, and the machine stays unstarted.
+// waits at the initial pose, lost, and the machine stays unstarted. A restarted scan starts at
+// the last frame's pose.
 LossRecovery::Frame Reconstructor::Impl::start_frame(const DepthView& depth, FrameResult& r) {
   LossRecovery::Frame f;
   f.index = r.index;
@@ -195,8 +196,44 @@ LossRecovery::Frame Reconstructor::Impl::start_frame(const DepthView& depth, Fra
     f.decision = machine.start();
   else
     f.decision = {TrackingStatus::kLost, PoseSource::kInitial, false, 0, false};
-  r.T_world_camera = config.initial_pose;
+  r.T_world_camera = trajectory.empty() ? config.initial_pose : trajectory.back().T_world_camera;
   return f;
+}
+
+// TrackingConfig::restart_lost_frames: the scan has been lost long enough, on a model of few
+// enough frames, to start again.
+bool Reconstructor::Impl::restart_due() const {
+  const TrackingConfig& t = config.tracking;
+  return t.restart_lost_frames > 0 && machine.started() && lost_run >= t.restart_lost_frames &&
+         fused_frames <= static_cast<std::size_t>(t.restart_model_frames);
+}
+
+// The model and everything learnt from it dropped; the trajectory and the IMU's state kept.
+Status Reconstructor::Impl::clear_model() {
+  IMUFUSION_RETURN_IF_ERROR(volume.reset());
+  machine.reset();
+  pairing.reset();
+  prediction_calibration.reset();
+  has_reference = false;
+  reference_is_frame = false;
+  reference_has_color = false;
+  photometric_sigma = 0;
+  reference_age = 0;
+  fused_frames = 0;
+  lost_run = 0;
+  seed_gate_holding = false;
+  relocalization.reset();
+  recovery.reset();
+  T_world_reference = Eigen::Isometry3d::Identity();
+  tracked_run.clear();
+  return {};
+}
+
+// The scan starts again at the incoming frame (TrackingConfig::restart_lost_frames).
+Status Reconstructor::Impl::restart() {
+  IMUFUSION_RETURN_IF_ERROR(clear_model());
+  if (navigator) navigator->forget_velocity();
+  return {};
 }
 
 // The frame aligned from the predicted seed (relocalized while lost), a recovery it restarts and
@@ -335,10 +372,15 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthV
   r.index = m.trajectory.size();
   r.timestamp = timestamp;
   IMUFUSION_RETURN_IF_ERROR(m.preprocess(depth, color, r.timings));
+  if (m.restart_due()) {
+    IMUFUSION_RETURN_IF_ERROR(m.restart());
+    r.restarted = true;
+  }
   auto frame = m.machine.started() && m.has_reference ? m.track_frame(timestamp, depth, r)
                                                       : m.start_frame(depth, r);
   if (!frame) return frame.error();
   const TrackingDecision& decision = frame->decision;
+  m.lost_run = decision.status == TrackingStatus::kLost ? m.lost_run + 1 : 0;
   // The pose is a measurement of the motion: the scan's start, or fully tracked by ICP.
   m.note_motion(
       decision.status == TrackingStatus::kTracking &&
@@ -443,23 +485,9 @@ Result<HostVolume> Reconstructor::snapshot() const { return impl_->volume.snapsh
 
 Status Reconstructor::reset() {
   Impl& m = *impl_;
-  IMUFUSION_RETURN_IF_ERROR(m.volume.reset());
-  m.machine.reset();
-  m.pairing.reset();
-  m.prediction_calibration.reset();
+  IMUFUSION_RETURN_IF_ERROR(m.clear_model());
   if (m.navigator) m.navigator->reset();
   m.trajectory.clear();
-  m.has_reference = false;
-  m.reference_is_frame = false;
-  m.reference_has_color = false;
-  m.photometric_sigma = 0;
-  m.reference_age = 0;
-  m.fused_frames = 0;
-  m.seed_gate_holding = false;
-  m.relocalization.reset();
-  m.recovery.reset();
-  m.T_world_reference = Eigen::Isometry3d::Identity();
-  m.tracked_run.clear();
   return {};
 }
 

@@ -82,6 +82,7 @@ struct Reconstructor::Impl final : ModelAligner {
   bool reference_is_frame = false;
   int reference_age = 0;         // frames tracked since the reference's raycast
   std::size_t fused_frames = 0;  // frames fused into the model (the first frame's included)
+  int lost_run = 0;              // frames lost in a row up to the last one
   // The incoming frame's median depth (m), once median_depth computed it for that depth image.
   const void* median_depth_of = nullptr;
   double median_depth_value = 0;
@@ -111,6 +112,9 @@ struct Reconstructor::Impl final : ModelAligner {
       bool keep_reference = false);
   bool reference_serves(const Eigen::Isometry3d& T_world_camera, const DepthView& depth);
   LossRecovery::Frame start_frame(const DepthView& depth, FrameResult& r);
+  bool restart_due() const;
+  Status restart();
+  Status clear_model();
   Result<LossRecovery::Frame> track_frame(double timestamp, const DepthView& depth, FrameResult& r);
   void note_decision(const TrackingDecision& decision, const IcpResult& icp, bool was_lost,
                      const StampedPose& previous, FrameResult& r);

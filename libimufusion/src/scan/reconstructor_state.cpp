@@ -28,7 +28,8 @@ constexpr std::uint32_t kVersion = 9;  // 2: the lens distortion; 3: the referen
                                        // 7: its least intensity noise;
                                        // 8: relocalization's search after a near fit
                                        //    and without the gyroscope;
-                                       // 9: the first frame's own maps as the reference
+                                       // 9: the first frame's own maps as the reference,
+                                       //    a restart after a loss at the start
 constexpr std::size_t kHeaderBytes = 24;
 
 // Floats in each of the reference maps saved with a scan: four per pixel of the tracking level.
@@ -80,8 +81,8 @@ Result<std::span<const std::uint8_t>> payload_of(const std::filesystem::path& pa
 void Reconstructor::Impl::describe_state(StateArchive& a) {
   Impl& m = *this;
   a(m.trajectory, m.T_world_reference, m.has_reference, m.reference_is_frame, m.reference_age,
-    m.fused_frames, m.seed_gate_holding, m.frame_interval, m.tracked_run, m.machine, m.pairing,
-    m.prediction_calibration, m.relocalization, m.recovery, m.photometric_sigma);
+    m.fused_frames, m.lost_run, m.seed_gate_holding, m.frame_interval, m.tracked_run, m.machine,
+    m.pairing, m.prediction_calibration, m.relocalization, m.recovery, m.photometric_sigma);
   bool inertial = m.navigator.has_value();
   a(inertial);
   if (inertial != m.navigator.has_value()) {
