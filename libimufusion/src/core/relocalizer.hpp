@@ -11,6 +11,7 @@
 // alignment that is reliable in all six directions. Pure C++, no GPU.
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cstdint>
 #include <optional>
 #include <vector>

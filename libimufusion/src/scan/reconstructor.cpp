@@ -372,13 +372,12 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthV
   r.index = m.trajectory.size();
   r.timestamp = timestamp;
   IMUFUSION_RETURN_IF_ERROR(m.preprocess(depth, color, r.timings));
-  if (m.restart_due()) {
-    IMUFUSION_RETURN_IF_ERROR(m.restart());
-    r.restarted = true;
-  }
+  const bool restarting = m.restart_due();
+  if (restarting) IMUFUSION_RETURN_IF_ERROR(m.restart());
   auto frame = m.machine.started() && m.has_reference ? m.track_frame(timestamp, depth, r)
                                                       : m.start_frame(depth, r);
   if (!frame) return frame.error();
+  r.restarted = restarting && m.machine.started();
   const TrackingDecision& decision = frame->decision;
   m.lost_run = decision.status == TrackingStatus::kLost ? m.lost_run + 1 : 0;
   // The pose is a measurement of the motion: the scan's start, or fully tracked by ICP.
