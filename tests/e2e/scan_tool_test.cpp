@@ -64,23 +64,29 @@ class ScanTool : public test::ScanToolTest {
  protected:
   ScanTool() : ScanToolTest("imufusion_scan_") {}
 
-  // Wall seed 23 (330 frames: the camera turns back to the room after its wall episode)
-  // scanned with `args` into `name`; checks that every relocalized frame starts a recovery and
-  // that every frame after the episode tracks (more than 10), and returns frames.csv's rows.
-  std::vector<Row> scan_wall_episode(const std::string& name, const std::string& args,
-                                     std::size_t& relocalized) {
-    const fs::path seq = synthesize(scratch_.path(), "wall_long", synth::SceneKind::kWall, 330, 23);
+  // A scan of wall seed 23 (330 frames: the camera turns back to the room after its wall
+  // episode): the sequence, the output directory, frames.csv's rows and the relocalized frames.
+  struct WallEpisode {
+    fs::path seq, out;
+    std::vector<Row> rows;
+    std::size_t relocalized = 0;
+  };
+
+  // Scans wall seed 23 with `args` into `name`; checks that every relocalized frame starts a
+  // recovery unfused and that every frame after the episode tracks (more than 10).
+  WallEpisode scan_wall_episode(const std::string& name, const std::string& args) {
+    WallEpisode e;
+    e.seq = synthesize(scratch_.path(), "wall_long", synth::SceneKind::kWall, 330, 23);
+    e.out = path(name);
     const synth::CameraMotion motion(synth::SceneKind::kWall, 23, synth::SynthConfig{}.start_time);
     const double episode_end = synth::SynthConfig{}.start_time + motion.episode_end();
-    const auto run = scan(seq.string() + " " + args + " --out " + path(name).string() + " --quiet");
+    const auto run = scan(e.seq.string() + " " + args + " --out " + e.out.string() + " --quiet");
     EXPECT_EQ(run.exit_code, 0) << run.err;
-    const auto rows = read_csv(path(name) / "frames.csv");
-    EXPECT_EQ(rows.size(), 330u);
+    e.rows = read_csv(e.out / "frames.csv");
     std::size_t after = 0;
-    relocalized = 0;
-    for (const Row& row : rows) {
+    for (const Row& row : e.rows) {
       if (row.at("relocalized") == "1") {
-        ++relocalized;
+        ++e.relocalized;
         EXPECT_EQ(row.at("status"), "recovering") << " t=" << row.at("timestamp");
         EXPECT_EQ(row.at("fused"), "0") << " t=" << row.at("timestamp");
       }
@@ -90,7 +96,7 @@ class ScanTool : public test::ScanToolTest {
       }
     }
     EXPECT_GT(after, 10u);
-    return rows;
+    return e;
   }
 };
 
@@ -276,10 +282,12 @@ TEST_F(ScanTool, WallStretchIsReportedAsLostAndNotFused) {
 // model, tracking resumes for every frame after the episode, and the lost stretch is
 // re-estimated so that the whole trajectory stays within 3 cm.
 TEST_F(ScanTool, WallScanWithTheImuRecoversOntoTheModel) {
-  std::size_t relocalized = 0, broken = 0;
-  const auto rows = scan_wall_episode("wall_imu", "", relocalized);
+  const WallEpisode episode = scan_wall_episode("wall_imu", "");
+  const std::vector<Row>& rows = episode.rows;
   ASSERT_EQ(rows.size(), 330u);
-  const fs::path seq = path("wall_long"), out = path("wall_imu");
+  const fs::path &seq = episode.seq, &out = episode.out;
+  const std::size_t relocalized = episode.relocalized;
+  std::size_t broken = 0;
   for (std::size_t i = 1; i < rows.size(); ++i)
     if (rows[i - 1].at("status") == "recovering" && rows[i].at("status") == "lost") ++broken;
   const auto summary = read_json(out / "summary.json");
@@ -332,11 +340,11 @@ TEST_F(ScanTool, WallScanWithTheImuRecoversOntoTheModel) {
 // the turn back ends), and every frame after the wall episode tracks. Without that search the
 // scan stays lost to its end (ATE 331 mm; 197 mm with it).
 TEST_F(ScanTool, WallScanWithoutTheImuRelocalizesOverOrientations) {
-  std::size_t relocalized = 0;
-  const auto rows = scan_wall_episode("wall_noimu", "--no-imu", relocalized);
-  EXPECT_GE(relocalized, 1u);
-  const auto summary = read_json(path("wall_noimu") / "summary.json");
-  EXPECT_EQ(summary["relocalizations"].get<std::size_t>(), relocalized);
+  const WallEpisode episode = scan_wall_episode("wall_noimu", "--no-imu");
+  ASSERT_EQ(episode.rows.size(), 330u);
+  EXPECT_GE(episode.relocalized, 1u);
+  const auto summary = read_json(episode.out / "summary.json");
+  EXPECT_EQ(summary["relocalizations"].get<std::size_t>(), episode.relocalized);
   EXPECT_LT(summary["ate"]["rmse"].get<double>(), 0.25) << summary["ate"].dump();
 }
 
