@@ -119,7 +119,10 @@ ReconstructorConfig make_config(const ScanOptions& opt, const SequenceReader* re
   // The hash table keeps at least 4 slots per block, as the defaults do.
   while (config.volume.hash_slots < 4ull * opt.block_capacity) config.volume.hash_slots *= 2;
   config.device.selector = opt.device;
-  if (opt.icp_iterations) config.icp.max_total_iterations = *opt.icp_iterations;
+  if (opt.icp_iterations) {
+    config.icp.max_total_iterations = *opt.icp_iterations;
+    config.icp.max_unsettled_iterations = 0;
+  }
   if (opt.photometric_weight) config.icp.photometric.weight = *opt.photometric_weight;
   config.tracking.recovery_frames = opt.recovery_frames;
   if (source != nullptr && source->T_camera_imu()) {

@@ -79,8 +79,12 @@ inline int scan_usage(std::ostream& out, int code) {
          "light\n"
          "                           or ToF, 0.3-5 m) or phone-tof (240x180 phone ToF, 0.2-4 m)\n"
          "  --no-imu                 track without the gyroscope (the ICP-only baseline)\n"
-         "  --icp-iterations N       Gauss-Newton steps per frame at most (default "
-      << kPresetIcpIterationsWithImu << " with IMU, " << kPresetIcpIterationsWithoutImu
+         "  --icp-iterations N       Gauss-Newton steps per frame, a fixed cap (default "
+      << kPresetIcpIterationsWithImu << " with IMU, then on up to "
+      << IcpConfig{}.max_unsettled_iterations
+      << " while a step\n"
+         "                           moves the pose by more than the frame's noise; "
+      << kPresetIcpIterationsWithoutImu
       << " without)\n"
          "  --photometric-weight W   the colour's weight in ICP against the depth's, each by\n"
          "                           its own residual (default "

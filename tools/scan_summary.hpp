@@ -93,6 +93,7 @@ inline nlohmann::json scan_settings_json(const ScanOptions& opt, const Reconstru
   if (!run.imu_fallback.empty()) s["imu_fallback"] = run.imu_fallback;
   s["imu_source"] = !c.imu.enabled ? "none" : opt.imu_udp ? "udp" : "sequence";
   s["icp_iterations_cap"] = c.icp.max_total_iterations;
+  s["icp_iterations_unsettled"] = c.icp.max_unsettled_iterations;
   const Intrinsics tracked = c.intrinsics.at_level(rec.tracking_level());
   s["tracking_level"] = rec.tracking_level();
   s["tracking_size"] = std::to_string(tracked.width) + "x" + std::to_string(tracked.height);

@@ -50,7 +50,11 @@ void bind_parts(py::module_& m) {
                      "the camera's least intensity noise, 1 sigma (default 0.02)");
   py::class_<IcpConfig>(m, "IcpConfig")
       .def_readwrite("max_total_iterations", &IcpConfig::max_total_iterations,
-                     "Gauss-Newton steps per frame at most while tracking")
+                     "Gauss-Newton steps per frame while tracking")
+      .def_readwrite("max_unsettled_iterations", &IcpConfig::max_unsettled_iterations,
+                     "steps in all while a step still moves the pose by more than settled_chi2")
+      .def_readwrite("settled_chi2", &IcpConfig::settled_chi2,
+                     "chi^2 of a step under ICP's own covariance that counts as settled")
       .def_readwrite("iterations_per_level", &IcpConfig::iterations_per_level,
                      "steps allowed per pyramid level, level 0 (full size) first")
       .def_readwrite("max_distance", &IcpConfig::max_distance, "m per level")

@@ -436,6 +436,7 @@ TEST(IcpCpu, ASingleIterationBudgetIsSpentAtFullResolution) {
   reference::CpuNormalEquationSource source(pair.reference, pair.current, pair.k);
   IcpConfig config;
   config.max_total_iterations = 1;
+  config.max_unsettled_iterations = 0;  // the cap fixed
   auto result = run_icp(source, config, Eigen::Isometry3d::Identity());
   ASSERT_TRUE(result.ok());
   EXPECT_EQ(result->quality.iterations, 1);
@@ -443,6 +444,32 @@ TEST(IcpCpu, ASingleIterationBudgetIsSpentAtFullResolution) {
   // One Gauss-Newton step from a small offset lands close.
   const Eigen::Isometry3d error = pair.T_ref_cur.inverse() * result->T_ref_cur;
   EXPECT_LT(error.translation().norm(), 0.002);
+}
+
+TEST(IcpCpu, PastTheCapLevelZeroStepsOnUntilItsStepIsWithinTheNoise) {
+  const synth::Scene scene = synth::make_scene(synth::SceneKind::kRoom, 1);
+  const Eigen::Isometry3d motion = small_motion(1.5, {0.3, 1, 0.2}, {0.02, -0.01, 0.015});
+  Pair pair = render_pair(scene, room_view(), motion, /*noise=*/true);
+  IcpConfig capped;
+  capped.max_total_iterations = 1;
+  capped.max_unsettled_iterations = 0;
+  IcpConfig settling = capped;
+  settling.max_unsettled_iterations = 10;
+  reference::CpuNormalEquationSource a(pair.reference, pair.current, pair.k);
+  reference::CpuNormalEquationSource b(pair.reference, pair.current, pair.k);
+  auto one = run_icp(a, capped, Eigen::Isometry3d::Identity());
+  auto more = run_icp(b, settling, Eigen::Isometry3d::Identity());
+  ASSERT_TRUE(one.ok() && more.ok());
+  EXPECT_EQ(one->quality.iterations, 1);
+  // One step from 2.6 cm and 1.5 deg off leaves the pose moving: level 0 steps on, and stops
+  // once a step is within the frame's noise, before the limit.
+  EXPECT_GT(more->quality.iterations, 1);
+  EXPECT_LT(more->quality.iterations, 10);
+  const double one_error = (pair.T_ref_cur.inverse() * one->T_ref_cur).translation().norm();
+  const double more_error = (pair.T_ref_cur.inverse() * more->T_ref_cur).translation().norm();
+  EXPECT_LT(more_error, 0.5 * one_error);
+  EXPECT_LT(more_error, 0.002);
+  EXPECT_TRUE(more->reliable()) << more->reason;
 }
 
 TEST(DepthNoiseModel, InformationIsTheInverseVarianceRelativeToTheLeastNoise) {
@@ -663,6 +690,21 @@ TEST(IcpConfigValidate, RejectsBadSeedGateSettings) {
   EXPECT_FALSE(config.validate(3).ok());
   config = IcpConfig{};
   config.seed_agreement_chi2 = -1;
+  EXPECT_FALSE(config.validate(3).ok());
+}
+
+TEST(IcpConfigValidate, RejectsBadSettlingSettings) {
+  IcpConfig config;
+  config.max_unsettled_iterations = -1;
+  Status bad = config.validate(3);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().message.find("max_unsettled_iterations"), std::string::npos);
+  config = IcpConfig{};
+  config.settled_chi2 = 0;
+  bad = config.validate(3);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().message.find("settled_chi2"), std::string::npos);
+  config.settled_chi2 = std::numeric_limits<double>::infinity();
   EXPECT_FALSE(config.validate(3).ok());
 }
 

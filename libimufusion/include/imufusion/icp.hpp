@@ -141,6 +141,12 @@ struct IcpConfig {
   /// Gauss-Newton iterations allowed per pyramid level, coarsest last (level 0 = full size).
   std::vector<int> iterations_per_level = {10, 5, 4};
   int max_total_iterations = 30;  // cap over all levels (1 = the paper's IMU setting)
+  /// Past that cap, level 0 goes on while its last step moved the pose by more than the frame's
+  /// noise allows: the step's chi^2 under ICP's own covariance, (AtA / (c s^2))^-1 (see
+  /// seed_prior), above `settled_chi2`; up to `max_unsettled_iterations` steps in all (at most
+  /// max_total_iterations: the cap is fixed). Defaults 10 and 1 (bench/README.md).
+  int max_unsettled_iterations = 10;
+  double settled_chi2 = 22.46;
   /// Correspondence rejection per level: point distance (m) and normal angle (deg).
   std::vector<float> max_distance = {0.10f, 0.15f, 0.20f};
   std::vector<float> max_normal_angle_deg = {20.f, 25.f, 30.f};

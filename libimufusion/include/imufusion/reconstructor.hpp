@@ -8,8 +8,9 @@
 //   2. dIMU = InertialEstimate(t-1, t) from the gyro (identity without IMU data); seed
 //      T_world_t = T_world_{t-1} * dIMU;
 //   3. ICP of the frame against the model raycast from T_world_{t-1} (GPU association and
-//      reduction, host Gauss-Newton), capped at icp.max_total_iterations Gauss-Newton steps
-//      (recovery.icp_iterations while lost or recovering);
+//      reduction, host Gauss-Newton), icp.max_total_iterations Gauss-Newton steps, more while a
+//      step still moves the pose (icp.max_unsettled_iterations; recovery.icp_iterations while
+//      lost or recovering);
 //   4. the state machine takes the ICP pose if ICP is reliable, else the dead-reckoned seed,
 //      and decides whether the frame is fused;
 //   5. fusion (GPU) when decided, then the raycast from the frame's pose (GPU) for frame t+1.

@@ -90,6 +90,11 @@ void add_seed_prior(IcpStep& step, const NormalEquations& eq, double scale, cons
   step.residual = residual_at(eq, x);
 }
 
+// chi^2 of a Gauss-Newton step `x` under ICP's own covariance, (scale AtA)^-1; 0 without a scale.
+double step_chi2(const NormalEquations& eq, double scale, const Vector6d& x) {
+  return scale > 0 ? scale * x.dot(eq.system_AtA() * x) : 0.0;
+}
+
 // chi^2 of the move `moved` from the initial pose under the seed's covariance plus ICP's,
 // (scale AtA)^-1; infinity when AtA is singular.
 double seed_chi2(const NormalEquations& eq, double scale, const Vector6d& info,
@@ -193,6 +198,11 @@ Status IcpConfig::validate(int levels) const {
   }
   if (max_total_iterations < 1 || max_total_iterations > 100)
     return bad("max_total_iterations must be 1..100, got " + std::to_string(max_total_iterations));
+  if (max_unsettled_iterations < 0 || max_unsettled_iterations > 100)
+    return bad("max_unsettled_iterations must be 0..100, got " +
+               std::to_string(max_unsettled_iterations));
+  if (!(settled_chi2 > 0) || !std::isfinite(settled_chi2))
+    return bad("settled_chi2 must be positive and finite, got " + format(settled_chi2));
   for (std::size_t l = 0; l < n; ++l) {
     if (iterations_per_level[l] < 0) return bad("negative ICP iteration count");
     if (!(max_distance[l] > 0)) return bad("ICP max_distance must be positive");
@@ -456,20 +466,23 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
   for (int level = levels - 1; level >= 0; --level) {
     // Keep one iteration for every finer level, so a small budget is spent at full resolution.
     const int budget = config.max_total_iterations - total - level;
-    const int iterations =
-        std::min(config.iterations_per_level[static_cast<std::size_t>(level)], budget);
-    if (iterations <= 0) continue;
+    const int allowed = config.iterations_per_level[static_cast<std::size_t>(level)];
+    const int iterations = std::min(allowed, budget);
+    // Level 0 may step on past the budget while its steps still move the pose (settled_chi2).
+    const int unsettled =
+        level == 0 ? std::min(allowed, config.max_unsettled_iterations - total) : 0;
+    if (std::max(iterations, unsettled) <= 0) continue;
     const auto l = static_cast<std::size_t>(level);
     const float min_cos =
         static_cast<float>(std::cos(config.max_normal_angle_deg[l] * M_PI / 180.0));
     bool converged = false;
-    for (int it = 0; it < iterations; ++it) {
+    for (int it = 0; it < std::max(iterations, unsettled); ++it) {
       auto eq = source.evaluate(level, T, config.max_distance[l], min_cos);
       if (!eq) return eq.error();
       IcpStep step = solve_icp_step(
           *eq, config.keep_seed_in_degenerate_directions ? config.reliability.max_condition : 0.0);
+      const double scale = step.solvable ? depth_information_scale(*eq, step, config, level) : 0.0;
       if (prior && step.solvable) {
-        const double scale = depth_information_scale(*eq, step, config, level);
         if (scale > 0 && config.seed_prior)
           add_seed_prior(step, *eq, scale, *prior, update_towards(T_ref_cur_init, T));
         if (level == 0) {
@@ -497,6 +510,8 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
         converged = true;
         break;
       }
+      // The budget spent: on only while the step was larger than the frame's noise.
+      if (it + 1 >= iterations && !(step_chi2(*eq, scale, step.x) > config.settled_chi2)) break;
     }
     result.quality.converged = converged;
   }
