@@ -143,8 +143,9 @@ struct IcpConfig {
   int max_total_iterations = 30;  // cap over all levels (1 = the paper's IMU setting)
   /// Past that cap, level 0 goes on while its last step moved the pose by more than the frame's
   /// noise allows: the step's chi^2 under ICP's own covariance, (AtA / (c s^2))^-1 (see
-  /// seed_prior), above `settled_chi2`; up to `max_unsettled_iterations` steps in all (at most
-  /// max_total_iterations: the cap is fixed). Defaults 10 and 1 (bench/README.md).
+  /// seed_prior), above `settled_chi2`; up to `max_unsettled_iterations` steps in all (a value
+  /// up to max_total_iterations leaves the cap fixed). Defaults 10 and 22.46, the 99.9 % point of
+  /// chi^2 with 6 degrees of freedom (bench/README.md).
   int max_unsettled_iterations = 10;
   double settled_chi2 = 22.46;
   /// Correspondence rejection per level: point distance (m) and normal angle (deg).
