@@ -33,6 +33,7 @@ struct ScanOptions {
   std::optional<double> photometric_weight;  // IcpPhotometricConfig::weight when given
   std::optional<TranslationModel> translation;
   int recovery_frames = TrackingConfig{}.recovery_frames;
+  int relocalized_recovery_frames = TrackingConfig{}.relocalized_recovery_frames;
   SensorPreset sensor = SensorPreset::kKinect;
   std::optional<float> voxel_size;                  // the preset's when not given
   std::optional<std::array<double, 5>> distortion;  // the lens's, over calibration.txt's
@@ -62,7 +63,8 @@ inline int scan_usage(std::ostream& out, int code) {
          "NAME|INDEX]\n"
          "                      [--list-devices] [--translation "
          "none|constant-velocity|accelerometer]\n"
-         "                      [--estimate-imu-rotation] [--recovery-frames N] [--no-color]\n"
+         "                      [--estimate-imu-rotation] [--recovery-frames N]\n"
+         "                      [--relocalized-recovery-frames N] [--no-color]\n"
          "                      [--demo-dir DIR] [--demo-frames N] [--quiet] [--depth-mode "
          "WxH@FPS]\n"
          "                      [--realtime] [--imu-udp PORT] [--imu-udp-address ADDR] [--record "
@@ -201,6 +203,9 @@ inline int parse_scan_value(const std::string& a, const std::string& v, ScanOpti
   } else if (a == "--recovery-frames") {
     if (!integer || *integer < 1 || *integer > 1000) return bad("a positive count");
     opt.recovery_frames = static_cast<int>(*integer);
+  } else if (a == "--relocalized-recovery-frames") {
+    if (!integer || *integer < 1 || *integer > 1000) return bad("a positive count");
+    opt.relocalized_recovery_frames = static_cast<int>(*integer);
   } else if (a == "--tracking-level") {
     if (!integer || *integer < 0 || *integer > 2) return bad("a pyramid level 0..2");
     opt.tracking_level = static_cast<int>(*integer);

@@ -102,6 +102,7 @@ inline nlohmann::json scan_settings_json(const ScanOptions& opt, const Reconstru
   s["lens_distortion"] = c.intrinsics.distortion;  // k1 k2 p1 p2 k3; all 0: a pinhole
   s["recovery_icp_iterations"] = c.recovery.icp_iterations;
   s["recovery_frames"] = c.tracking.recovery_frames;
+  s["relocalized_recovery_frames"] = c.tracking.relocalized_recovery_frames;
   s["translation_model"] = to_string(c.inertial.translation);
   s["camera_imu_rotation"] = c.inertial.T_camera_imu_known ? "given" : "estimated";
   s["voxel_size"] = c.volume.voxel_size;

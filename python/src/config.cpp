@@ -73,6 +73,8 @@ void bind_parts(py::module_& m) {
   py::class_<TrackingConfig>(m, "TrackingConfig")
       .def_readwrite("recovery_frames", &TrackingConfig::recovery_frames,
                      "reliable frames after a loss before fusion resumes (default 3)")
+      .def_readwrite("relocalized_recovery_frames", &TrackingConfig::relocalized_recovery_frames,
+                     "the same after a loss the relocalization search ended (default 1)")
       .def_readwrite("constant_velocity_pairs", &TrackingConfig::constant_velocity_pairs);
   py::class_<InertialConfig> inertial(m, "InertialConfig");
   pose_property(inertial, "T_camera_imu", &InertialConfig::T_camera_imu,

@@ -75,6 +75,8 @@ TEST_F(ReconstructorTest, PlacesTheLostFramesBackwardFromTheRecovery) {
   const auto scan = [&](int retrack_lost_frames, std::vector<FrameResult>& results) {
     ReconstructorConfig c = config(true, 2);
     c.smoothing.retrack_frames = retrack_lost_frames;
+    // The relocalized frame counted as any recovering frame: its successor checks it.
+    c.tracking.relocalized_recovery_frames = c.tracking.recovery_frames;
     c.relocalization.drift_acceleration = 50;  // the search must reach as far as the jolt drifts
     c.relocalization.interval = 8;
     c.inertial.gravity_min_time =
@@ -130,6 +132,39 @@ TEST_F(ReconstructorTest, PlacesTheLostFramesBackwardFromTheRecovery) {
   ASSERT_EQ(unplaced_results.size(), frames_.size());
   EXPECT_EQ(unplaced_results[back].retracked, 0u);
   EXPECT_LT(ate(rec.trajectory()), 0.5 * ate(unplaced.trajectory()));
+}
+
+// The same jolt with the default tracking.relocalized_recovery_frames (1): the frame the
+// relocalization search places ends the loss at once (lost -> tracking, fused), and the stretch
+// before it is settled there: the lost frames with depth are placed backward from it.
+TEST_F(ReconstructorTest, ALossEndedByTheSearchSettlesItsStretchAtOnce) {
+  const std::size_t blank_begin = 14, blank_end = 16;
+  ReconstructorConfig c = config(true, 2);
+  ASSERT_EQ(c.tracking.relocalized_recovery_frames, 1);
+  c.relocalization.drift_acceleration = 50;  // as above: the search reaches the jolt's drift
+  c.relocalization.interval = 8;
+  c.inertial.gravity_min_time = 0.3;
+  c.inertial.max_speed = 100;
+  Reconstructor rec = make(c);
+  const std::vector<FrameResult> results = scan_jolted(
+      rec, frames_.size() - 1, [&](std::size_t i) { return i == blank_begin ? 180.0 : 0.0; },
+      [&](std::size_t i) { return i >= blank_begin && i < blank_end; });
+  ASSERT_EQ(results.size(), frames_.size());
+  const std::size_t back = first_recovered(results, blank_begin);
+  ASSERT_LT(back, results.size()) << "tracking never resumed";
+  ASSERT_GT(back, blank_end) << "the loss ended before any lost frame had depth";
+  EXPECT_TRUE(results[back].relocalized);
+  EXPECT_EQ(results[back].status, TrackingStatus::kTracking);
+  EXPECT_TRUE(results[back].fused);
+  EXPECT_GT(results[back].retracked, 0u);
+  for (std::size_t i = blank_begin; i < back; ++i) {
+    EXPECT_FALSE(results[i].fused) << "frame " << i;
+    if (results[i].status == TrackingStatus::kLost && i >= blank_end) {
+      EXPECT_GT(position_error({results[i].timestamp, results[i].T_world_camera}), 0.1)
+          << "frame " << i << " (live)";
+      EXPECT_LT(position_error(rec.trajectory()[i]), 0.01) << "frame " << i;
+    }
+  }
 }
 
 // Depth returns after a few blank frames with a view from further along the path (what a

@@ -37,6 +37,14 @@ TEST(ReconstructorConfig, RejectsSettingsOutOfRange) {
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.error().message.find("recovery_frames"), std::string::npos);
   c.tracking.recovery_frames = 3;
+  for (int bad : {0, 4}) {
+    c.tracking.relocalized_recovery_frames = bad;
+    s = c.validate();
+    ASSERT_FALSE(s.ok()) << bad;
+    EXPECT_NE(s.error().message.find("relocalized_recovery_frames"), std::string::npos);
+  }
+  c.tracking.relocalized_recovery_frames = 3;
+  EXPECT_TRUE(c.validate().ok());
   c.tracking.constant_velocity_pairs = -1;
   s = c.validate();
   ASSERT_FALSE(s.ok());

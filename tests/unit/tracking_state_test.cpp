@@ -15,8 +15,10 @@ void expect(const TrackingDecision& d, TrackingStatus status, PoseSource source,
   EXPECT_EQ(d.fuse, fuse);
 }
 
-TrackingStateMachine lost_machine(int recovery_frames) {
-  TrackingStateMachine m({recovery_frames, 10});
+TrackingStateMachine lost_machine(int recovery_frames, int relocalized_recovery_frames = 1) {
+  TrackingStateMachine m(
+      TrackingConfig{.recovery_frames = recovery_frames,
+                     .relocalized_recovery_frames = relocalized_recovery_frames});
   m.start();
   m.step(false, false);
   return m;
@@ -67,6 +69,32 @@ TEST(TrackingStateMachine, RecoveryNeedsConsecutiveReliableConvergedFrames) {
   EXPECT_TRUE(d3.recovered);
   EXPECT_FALSE(m.recovering_or_lost());
   EXPECT_FALSE(m.step(true, true).recovered);
+}
+
+TEST(TrackingStateMachine, AFrameTheSearchRelocalizedEndsTheLossAtOnce) {
+  auto m = lost_machine(3);
+  auto d = m.step(true, true, false, true, /*relocalized=*/true);
+  expect(d, TrackingStatus::kTracking, PoseSource::kIcp, true);
+  EXPECT_TRUE(d.recovered);
+  EXPECT_FALSE(m.recovering_or_lost());
+}
+
+TEST(TrackingStateMachine, RelocalizedRecoveryFramesCountTheRestAfterTheSearch) {
+  auto m = lost_machine(4, 2);
+  auto d1 = m.step(true, true, false, true, /*relocalized=*/true);
+  expect(d1, TrackingStatus::kRecovering, PoseSource::kIcp, false);
+  EXPECT_EQ(d1.good_frames, 3);
+  auto d2 = m.step(true, true);
+  expect(d2, TrackingStatus::kTracking, PoseSource::kIcp, true);
+  EXPECT_TRUE(d2.recovered);
+  // Counted as any other frame once recovering, and nothing while it has not settled.
+  auto r = lost_machine(3);
+  expect(r.step(true, false, false, true, true), TrackingStatus::kLost, PoseSource::kDeadReckoning,
+         false);
+  EXPECT_EQ(r.step(true, true).good_frames, 1);
+  auto d3 = r.step(true, true, false, true, true);
+  expect(d3, TrackingStatus::kRecovering, PoseSource::kIcp, false);
+  EXPECT_EQ(d3.good_frames, 2);
 }
 
 TEST(TrackingStateMachine, ReliableButUnconvergedDoesNotCountWhileLost) {

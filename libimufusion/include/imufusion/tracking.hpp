@@ -9,6 +9,9 @@
 //   tracking   --ICP unreliable-->                    lost         pose: dead reckoning, not fused
 //   lost       --ICP unreliable-->                    lost         pose: dead reckoning, not fused
 //   lost       --ICP reliable and converged-->        recovering   pose: ICP,   not fused
+//   lost       --relocalized, reliable, converged-->  tracking     pose: ICP,   fused
+//                (with relocalized_recovery_frames 1; k frames: recovering, counted as
+//                 recovery_frames - k + 1)
 //   recovering --reliable and converged, k-th time--> tracking once k == recovery_frames, fused
 //   recovering --reliable, not converged-->           recovering   pose: ICP (count unchanged)
 //   recovering --ICP unreliable-->                    lost         pose: dead reckoning, not fused
@@ -54,6 +57,10 @@ struct TrackingConfig {
   /// Consecutive reliable, converged frames after a loss before fusion resumes (hysteresis: one
   /// lucky alignment against a half-seen model must not smear a wrong pose into the volume).
   int recovery_frames = 3;
+  /// The same for a loss ended by the relocalization search, which already confirmed the frame
+  /// as the only fit within dead reckoning's reach: 1 (default) fuses from that frame on; at most
+  /// recovery_frames (bench/README.md, "A loss ended by the relocalization search").
+  int relocalized_recovery_frames = 1;
   /// A scan lost for `restart_lost_frames` frames in a row while its model holds at most
   /// `restart_model_frames` fused frames starts again at the current frame, from its current
   /// pose, on a new model: a start that never tracked (a hand or a blur in the first frame) has
@@ -138,8 +145,9 @@ class TrackingStateMachine {
   /// matters only while lost or recovering, where alignment must settle before it counts.
   /// `icp_partial`: IcpResult::partial (only looked at when icp_reliable is false);
   /// `partial_may_fuse`: whether a partial frame may still be fused while tracking.
+  /// `relocalized`: the relocalization search placed this lost frame (relocalized_recovery_frames).
   TrackingDecision step(bool icp_reliable, bool converged, bool icp_partial = false,
-                        bool partial_may_fuse = true);
+                        bool partial_may_fuse = true, bool relocalized = false);
   /// While recovering: the frames counted so far disagree with the next one, which starts the
   /// count again (step() then counts it as the first good frame). No effect in other states.
   void restart_recovery();

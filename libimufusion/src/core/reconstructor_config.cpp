@@ -21,6 +21,11 @@ Status ReconstructorConfig::validate() const {
   if (tracking.recovery_frames < 1)
     return bad("tracking.recovery_frames must be at least 1, got " +
                std::to_string(tracking.recovery_frames));
+  if (tracking.relocalized_recovery_frames < 1 ||
+      tracking.relocalized_recovery_frames > tracking.recovery_frames)
+    return bad("tracking.relocalized_recovery_frames must be from 1 to recovery_frames (" +
+               std::to_string(tracking.recovery_frames) + "), got " +
+               std::to_string(tracking.relocalized_recovery_frames));
   if (tracking_level < -1 || tracking_level >= preprocess.levels)
     return bad("tracking_level must be -1 (by device) or a pyramid level below " +
                std::to_string(preprocess.levels) + ", got " + std::to_string(tracking_level));

@@ -104,7 +104,7 @@ TrackingDecision TrackingStateMachine::start() {
 }
 
 TrackingDecision TrackingStateMachine::step(bool icp_reliable, bool converged, bool icp_partial,
-                                            bool partial_may_fuse) {
+                                            bool partial_may_fuse, bool relocalized) {
   if (!started_) return start();
   const PoseSource lost_source = icp_partial ? PoseSource::kIcpPartial : PoseSource::kDeadReckoning;
   if (status_ == TrackingStatus::kTracking) {
@@ -125,7 +125,12 @@ TrackingDecision TrackingStateMachine::step(bool icp_reliable, bool converged, b
     return {TrackingStatus::kLost, icp_reliable ? PoseSource::kDeadReckoning : lost_source, false,
             0, false};
   }
-  good_frames_ = std::min(good_frames_ + 1, std::max(config_.recovery_frames, 1));
+  // A relocalized lost frame counts as the frames the search's confirmation stands for.
+  const int credit =
+      status_ == TrackingStatus::kLost && relocalized
+          ? std::max(config_.recovery_frames - config_.relocalized_recovery_frames + 1, 1)
+          : 1;
+  good_frames_ = std::min(good_frames_ + credit, std::max(config_.recovery_frames, 1));
   if (good_frames_ >= config_.recovery_frames) {
     status_ = TrackingStatus::kTracking;
     const int counted = good_frames_;

@@ -52,7 +52,9 @@ Result<std::size_t> LossRecovery::on_frame(const Frame& frame, const DepthView& 
                                            ModelAligner& model, FrameTimings& timings) {
   const TrackingDecision& decision = frame.decision;
   if (frame.restarted) restart_pending(frame, trajectory);
-  if (frame.was_lost && decision.status == TrackingStatus::kRecovering)
+  // The first frame ICP placed after the loss; with tracking.recovery_frames 1 it ends the loss
+  // itself (lost -> tracking), and its correction is settled at once below.
+  if (frame.was_lost && (decision.status == TrackingStatus::kRecovering || decision.recovered))
     start_pending(frame, trajectory, navigator);
   // Taken as exact only while dead reckoning is still within ICP's reach: from a seed further
   // off, partial ICP may settle on the wrong stretch of the model in the directions it fixes

@@ -289,8 +289,8 @@ Result<LossRecovery::Frame> Reconstructor::Impl::track_frame(double timestamp,
   f.restarted = r.recovery_restarted =
       recovery.disagrees(machine.status(), *icp, r.imu, f.T_world_seed, T_world_icp);
   if (f.restarted) machine.restart_recovery();
-  f.decision =
-      machine.step(icp->reliable(), icp->quality.converged, icp->partial(), partial_may_fuse);
+  f.decision = machine.step(icp->reliable(), icp->quality.converged, icp->partial(),
+                            partial_may_fuse, r.relocalized);
   const PoseSource source = f.decision.source;
   r.T_world_camera = source == PoseSource::kIcp || source == PoseSource::kIcpPartial
                          ? T_world_icp
