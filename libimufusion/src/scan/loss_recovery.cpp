@@ -52,8 +52,9 @@ Result<std::size_t> LossRecovery::on_frame(const Frame& frame, const DepthView& 
                                            ModelAligner& model, FrameTimings& timings) {
   const TrackingDecision& decision = frame.decision;
   if (frame.restarted) restart_pending(frame, trajectory);
-  // The first frame ICP placed after the loss; with tracking.recovery_frames 1 it ends the loss
-  // itself (lost -> tracking), and its correction is settled at once below.
+  // The first frame ICP placed after the loss. A relocalized one (tracking.
+  // relocalized_recovery_frames 1), or any with recovery_frames 1, ends the loss itself (lost ->
+  // tracking): its correction is settled at once below.
   if (frame.was_lost && (decision.status == TrackingStatus::kRecovering || decision.recovered))
     start_pending(frame, trajectory, navigator);
   // Taken as exact only while dead reckoning is still within ICP's reach: from a seed further
