@@ -305,8 +305,8 @@ TEST_F(ScanTool, WallScanWithTheImuRecoversOntoTheModel) {
   // The same scan ended two frames into a recovery of three (its relocalized frame counted as
   // any other): the scanner settles the lost stretch at its end (Reconstructor::finish), so the
   // lost frames lie where the whole scan's recovery puts them, not where dead reckoning left them
-  // (frames.csv) (the whole scan settles its stretch at the
-  // relocalized frame, the cut one at its end).
+  // (frames.csv). The whole scan settles its stretch at the relocalized frame, the cut one at its
+  // end.
   const auto first_relocalized = std::find_if(
       rows.begin(), rows.end(), [](const Row& row) { return row.at("relocalized") == "1"; });
   ASSERT_NE(first_relocalized, rows.end());
