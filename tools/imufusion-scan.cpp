@@ -125,9 +125,9 @@ ReconstructorConfig make_config(const ScanOptions& opt, const SequenceReader* re
   }
   if (opt.photometric_weight) config.icp.photometric.weight = *opt.photometric_weight;
   config.tracking.recovery_frames = opt.recovery_frames;
-  // A relocalized frame never needs more than any other recovering frame.
-  config.tracking.relocalized_recovery_frames =
-      std::min(opt.relocalized_recovery_frames, opt.recovery_frames);
+  // The default never asks a relocalized frame for more than any other recovering frame.
+  config.tracking.relocalized_recovery_frames = opt.relocalized_recovery_frames.value_or(
+      std::min(TrackingConfig{}.relocalized_recovery_frames, opt.recovery_frames));
   if (source != nullptr && source->T_camera_imu()) {
     config.inertial.T_camera_imu = *source->T_camera_imu();
     config.inertial.T_camera_imu_known = true;

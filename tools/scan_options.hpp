@@ -33,7 +33,9 @@ struct ScanOptions {
   std::optional<double> photometric_weight;  // IcpPhotometricConfig::weight when given
   std::optional<TranslationModel> translation;
   int recovery_frames = TrackingConfig{}.recovery_frames;
-  int relocalized_recovery_frames = TrackingConfig{}.relocalized_recovery_frames;
+  /// Given: at most recovery_frames (parse_scan_options refuses more); not given: the default,
+  /// at most recovery_frames.
+  std::optional<int> relocalized_recovery_frames;
   SensorPreset sensor = SensorPreset::kKinect;
   std::optional<float> voxel_size;                  // the preset's when not given
   std::optional<std::array<double, 5>> distortion;  // the lens's, over calibration.txt's
@@ -104,6 +106,14 @@ inline int scan_usage(std::ostream& out, int code) {
          "                           the outputs cover the kept frames only (default 1)\n"
          "  --estimate-imu-rotation  ignore imu_to_camera.txt and estimate the camera-IMU "
          "rotation\n"
+         "  --recovery-frames N      good frames in a row that end a loss (default "
+      << TrackingConfig{}.recovery_frames
+      << ")\n"
+         "  --relocalized-recovery-frames N  the same for a loss the relocalization search "
+         "ends,\n"
+         "                           at most --recovery-frames (default "
+      << TrackingConfig{}.relocalized_recovery_frames
+      << ")\n"
          "  --depth-mode WxH@FPS     camera depth mode (default 640x480@30)\n"
          "  --realtime               deliver recorded frames at their recorded pace\n"
          "  --imu-udp PORT           take the IMU from UDP lines (imu.txt or Sensorstream format) "
@@ -268,6 +278,12 @@ inline int parse_scan_options(int argc, char** argv, ScanOptions& opt) {
       std::cerr << "error: more than one input: " << opt.input << " and " << a << "\n";
       return scan_usage(std::cerr, 2);
     }
+  }
+  if (opt.relocalized_recovery_frames && *opt.relocalized_recovery_frames > opt.recovery_frames) {
+    std::cerr << "error: --relocalized-recovery-frames " << *opt.relocalized_recovery_frames
+              << " is above --recovery-frames " << opt.recovery_frames
+              << " (a relocalized frame needs at most the frames any recovery needs)\n";
+    return scan_usage(std::cerr, 2);
   }
   return -1;
 }

@@ -456,6 +456,11 @@ TEST_F(ScanTool, BadInputIsRefusedWithAClearMessage) {
   EXPECT_NE(voxel.err.find("abc"), std::string::npos) << voxel.err;
   auto model = scan("x --translation warp");
   EXPECT_EQ(model.exit_code, 2);
+  auto relocalized = scan("x --recovery-frames 2 --relocalized-recovery-frames 3");
+  EXPECT_EQ(relocalized.exit_code, 2);
+  EXPECT_NE(relocalized.err.find("--relocalized-recovery-frames 3 is above --recovery-frames 2"),
+            std::string::npos)
+      << relocalized.err;
 
   const fs::path seq = synthesize(scratch_.path(), "room", synth::SceneKind::kRoom, 4, 29);
   auto poses = scan(seq.string() + " --poses " + path("nope.txt").string() + " --out " +
