@@ -216,9 +216,10 @@ TEST_F(ScanTool, ABadFrameStepIsRefusedNamingIt) {
 }
 
 // Facing a bare wall, ICP is degenerate: with or without the IMU those frames must be reported
-// (lost, dead-reckoned pose) and never fused. With the IMU, the first moments of the degeneracy
-// are bridged by partial alignments (tracking, pose source icp_partial, fewer than six
-// directions from ICP), for at most max_partial_seconds after the last fully constrained frame.
+// (lost, dead-reckoned or partly placed pose) and never fused. With the IMU, the first moments of
+// the degeneracy are bridged by partial alignments (tracking, pose source icp_partial, fewer than
+// six directions from ICP), for at most max_partial_seconds after the last fully constrained
+// frame. Without it, only lost frames are placed partly (recovery.partial_without_imu).
 TEST_F(ScanTool, WallStretchIsReportedAsLostAndNotFused) {
   const fs::path seq = synthesize(scratch_.path(), "wall", synth::SceneKind::kWall, 200, 23);
   const synth::CameraMotion motion(synth::SceneKind::kWall, 23, synth::SynthConfig{}.start_time);
@@ -240,13 +241,17 @@ TEST_F(ScanTool, WallStretchIsReportedAsLostAndNotFused) {
       if (row.at("pose_source") == "icp" || row.at("pose_source") == "initial")
         last_constrained = t;
       if (row.at("pose_source") == "icp_partial") {
-        EXPECT_TRUE(flags.empty())
-            << "partial alignment without an IMU at t=" << row.at("timestamp");
+        if (!flags.empty()) {
+          EXPECT_EQ(row.at("status"), "lost") << " t=" << row.at("timestamp");
+        }
         EXPECT_EQ(row.at("icp_reliable"), "0") << " t=" << row.at("timestamp");
         const int directions = std::stoi(row.at("icp_directions"));
         EXPECT_GE(directions, 3) << " t=" << row.at("timestamp");
-        EXPECT_LT(directions, 6) << " t=" << row.at("timestamp");
+        EXPECT_LE(directions, 6) << " t=" << row.at("timestamp");
         if (row.at("status") == "tracking") {
+          // A tracking frame is partial only for a direction the depth leaves free; a lost one
+          // also for pairing below reliability's.
+          EXPECT_LT(directions, 6) << " t=" << row.at("timestamp");
           ++partial;
           EXPECT_EQ(row.at("fused"), "1") << " t=" << row.at("timestamp");
           EXPECT_LE(t - last_constrained, ReconstructorConfig{}.imu.max_partial_seconds + 1e-6)
@@ -341,13 +346,17 @@ TEST_F(ScanTool, WallScanWithTheImuRecoversOntoTheModel) {
 // and 90 degrees from it: the search over orientations places it again (frame 252 here, before
 // the turn back ends), and every frame after the wall episode tracks. Without that search the
 // scan stays lost to its end (ATE 331 mm; 197 mm with it).
+// Without the IMU a lost frame as the camera leaves the model is still placed by partial ICP
+// (frame 76 here, its rotation error 9 degrees less than the frame held where the loss began):
+// the search places the camera at frame 220 rather than 251, ATE 74 mm (193 mm without
+// recovery.partial_without_imu).
 TEST_F(ScanTool, WallScanWithoutTheImuRelocalizesOverOrientations) {
   const WallEpisode episode = scan_wall_episode("wall_noimu", "--no-imu");
   ASSERT_EQ(episode.rows.size(), 330u);
   EXPECT_GE(episode.relocalized, 1u);
   const auto summary = read_json(episode.out / "summary.json");
   EXPECT_EQ(summary["relocalizations"].get<std::size_t>(), episode.relocalized);
-  EXPECT_LT(summary["ate"]["rmse"].get<double>(), 0.25) << summary["ate"].dump();
+  EXPECT_LT(summary["ate"]["rmse"].get<double>(), 0.12) << summary["ate"].dump();
 }
 
 // A loss along the wall that ends where partial ICP finds the model again: in this scan it moves

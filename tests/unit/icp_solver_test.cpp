@@ -675,6 +675,37 @@ TEST(IcpSeedPrior, AFrameThatPairsFewPixelsButAgreesWithTheSeedIsReliable) {
   EXPECT_FALSE(too_few->reliable());
 }
 
+// A wall-like system: three strong directions, three that the depth barely constrains.
+TEST(IcpPartial, APartialResultNeedsOnlyItsOwnPairingFloor) {
+  Eigen::Matrix<double, 6, 1> s;
+  s << 2e4, 2e4, 1, 1, 1, 2e4;
+  IcpConfig config;
+  config.keep_seed_in_degenerate_directions = true;
+  // 25 % paired: under reliability's 40 %, so no partial result by default.
+  QuadraticSource scarce(s, gate_target(0.001), 0.25);
+  auto refused = run_icp(scarce, config, Eigen::Isometry3d::Identity());
+  ASSERT_TRUE(refused.ok());
+  EXPECT_FALSE(refused->partial());
+  EXPECT_NE(refused->reason.find("inlier fraction"), std::string::npos) << refused->reason;
+  // With the floor at 15 %, the same alignment is partial and fixes the strong directions.
+  config.partial_min_fraction = 0.15;
+  QuadraticSource again(s, gate_target(0.001), 0.25);
+  auto partial = run_icp(again, config, Eigen::Isometry3d::Identity());
+  ASSERT_TRUE(partial.ok());
+  EXPECT_TRUE(partial->partial()) << partial->reason;
+  EXPECT_EQ(partial->quality.constrained_directions, 3);
+  EXPECT_NEAR(partial->T_ref_cur.translation().z(), 0.001, 1e-6);
+  EXPECT_NEAR(partial->T_ref_cur.translation().x(), 0.0, 1e-9);  // weak: the seed's
+  // The floor never makes a reliable result of it, and under it nothing is taken.
+  QuadraticSource sparse(s, gate_target(0.001), 0.1);
+  auto below = run_icp(sparse, config, Eigen::Isometry3d::Identity());
+  ASSERT_TRUE(below.ok());
+  EXPECT_FALSE(below->partial());
+  EXPECT_FALSE(below->reliable());
+  config.partial_min_fraction = 1.5;
+  EXPECT_FALSE(config.validate(1).ok());
+}
+
 TEST(IcpConfigValidate, RejectsBadSeedGateSettings) {
   IcpConfig config;
   config.seed_sigma_translation = -0.001;

@@ -169,6 +169,10 @@ struct IcpConfig {
   /// With keep_seed_in_degenerate_directions: the fewest directions the depth must constrain
   /// for a partial result (a plane constrains three).
   int min_constrained_directions = 3;
+  /// With keep_seed_in_degenerate_directions: a partial result's inlier and pixel fractions need
+  /// reach only this, where it is below reliability's (a lost frame's view past the model's
+  /// surface); 0 (default): reliability's.
+  double partial_min_fraction = 0;
   /// The initial pose's uncertainty (1 sigma per axis of the update x: rad for alpha, beta,
   /// gamma and m for tx, ty, tz), e.g. of an inertial prediction; 0: unknown, no gate. With
   /// keep_seed_in_degenerate_directions, ICP's motion away from the initial pose along each

@@ -28,7 +28,9 @@
 // exactly those along which the visible surface looks the same (a wall slid along itself) --
 // for a while: the caller says whether a partial frame may still be fused (the IMU's share drifts
 // with time). A partial pose is always better than dead reckoning, so lost frames take it too,
-// but it never counts towards recovery, which must be confirmed in all six directions.
+// but it never counts towards recovery, which must be confirmed in all six directions. Without
+// the IMU only lost frames are placed partly, from the frame before
+// (ReconstructorConfig::recovery.partial_without_imu).
 //
 // The first frame of a scan (or after reset) defines the world: status tracking, pose source
 // `initial`, fused. (The Reconstructor starts the machine at the first frame with depth enough to

@@ -258,6 +258,8 @@ Status IcpConfig::validate(int levels) const {
   if (!(seed_gate_hold_sigmas > 0 && seed_gate_hold_sigmas <= seed_gate_sigmas))
     return bad("seed_gate_hold_sigmas must be in (0, seed_gate_sigmas], got " +
                format(seed_gate_hold_sigmas));
+  if (!(partial_min_fraction >= 0 && partial_min_fraction <= 1))
+    return bad("partial_min_fraction must be in [0, 1], got " + format(partial_min_fraction));
   return {};
 }
 
@@ -429,9 +431,14 @@ void judge_result(IcpResult& result, const IcpConfig& config, const LastStep& la
   }
   if (!result.reliable() && config.keep_seed_in_degenerate_directions && last.finest_run == 0 &&
       result.quality.constrained_directions >= config.min_constrained_directions) {
-    // Partial: every test but the condition passes (judged with the condition let through).
+    // Partial: every test but the condition passes (judged with the condition let through, and
+    // the pairing down to partial_min_fraction).
     IcpReliabilityThresholds t = config.reliability;
     t.max_condition = std::numeric_limits<double>::infinity();
+    if (config.partial_min_fraction > 0) {
+      t.min_inlier_fraction = std::min(t.min_inlier_fraction, config.partial_min_fraction);
+      t.min_pixel_fraction = std::min(t.min_pixel_fraction, config.partial_min_fraction);
+    }
     if (judge_icp(result.quality, t, nullptr)) {
       result.verdict = IcpVerdict::kPartial;
       result.fixed_translation = last.fixed;

@@ -29,9 +29,9 @@ void describe(StateArchive& a, IcpConfig& x) {
   a(x.iterations_per_level, x.max_total_iterations, x.max_unsettled_iterations, x.settled_chi2,
     x.max_distance, x.max_normal_angle_deg, x.normal_gate, x.converged_rotation,
     x.converged_translation, x.reliability, x.depth_noise, x.keep_seed_in_degenerate_directions,
-    x.min_constrained_directions, x.seed_sigma_rotation, x.seed_sigma_translation,
-    x.seed_gate_condition, x.seed_gate_sigmas, x.seed_gate_hold_sigmas, x.seed_gate, x.seed_prior,
-    x.correlated_pixels, x.seed_agreement_chi2, x.photometric);
+    x.min_constrained_directions, x.partial_min_fraction, x.seed_sigma_rotation,
+    x.seed_sigma_translation, x.seed_gate_condition, x.seed_gate_sigmas, x.seed_gate_hold_sigmas,
+    x.seed_gate, x.seed_prior, x.correlated_pixels, x.seed_agreement_chi2, x.photometric);
 }
 
 void describe(StateArchive& a, VolumeConfig& x) {
@@ -65,7 +65,7 @@ void describe(StateArchive& a, RelocalizationConfig& x) {
 
 void describe(StateArchive& a, RecoveryConfig& x) {
   a(x.icp_iterations, x.converged_rotation, x.converged_translation, x.agreement_distance,
-    x.correct_velocity);
+    x.correct_velocity, x.partial_without_imu);
 }
 
 void describe(StateArchive& a, LossSmoothingConfig& x) {

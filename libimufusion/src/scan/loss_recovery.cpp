@@ -60,7 +60,10 @@ Result<std::size_t> LossRecovery::on_frame(const Frame& frame, const DepthView& 
   // Taken as exact only while dead reckoning is still within ICP's reach: from a seed further
   // off, partial ICP may settle on the wrong stretch of the model in the directions it fixes
   // too, so there its move is a measurement to be checked (smoothing.partial_move_sigma).
-  if (decision.source == PoseSource::kIcpPartial &&
+  // Without the IMU the partial poses are the stretch's own estimate: the directions they hold
+  // drift by the camera's whole motion, and a weakly constrained one may count as fixed, so the
+  // recovery's correction spreads over every direction.
+  if (decision.source == PoseSource::kIcpPartial && navigator != nullptr &&
       (!frame.long_loss || smoothing_.partial_move_sigma > 0))
     partial_.push_back({frame.index, frame.fixed,
                         frame.T_world_camera.translation() - frame.T_world_seed.translation(),

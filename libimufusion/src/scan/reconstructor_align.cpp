@@ -115,8 +115,15 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthView& depth,
                                              FrameTimings& timings) {
   const auto t0 = Clock::now();
   IcpConfig icp = config.icp;
+  // Without the IMU only a lost frame is placed partly (recovery.partial_without_imu): the held
+  // directions keep the frame before's pose, which nothing predicts.
+  const bool lost_without_imu = !navigator && config.recovery.partial_without_imu &&
+                                machine.status() == TrackingStatus::kLost;
   icp.keep_seed_in_degenerate_directions =
-      config.imu.partial_icp && prediction.rotation_from_imu && prediction.translation_predicted;
+      (config.imu.partial_icp && prediction.rotation_from_imu &&
+       prediction.translation_predicted) ||
+      lost_without_imu;
+  if (lost_without_imu) icp.partial_min_fraction = config.tracking.pairing_floor;
   icp.reliability = reliability(depth);
   // The prediction measures the motion only while tracking: a lost or recovering frame's seed
   // carries the whole drift of dead reckoning, not one frame's prediction error.

@@ -17,7 +17,8 @@ RelocalizationDriver::RelocalizationDriver(const ReconstructorConfig& config)
     : config_(config.relocalization),
       icp_reach_(config.icp.max_distance[static_cast<std::size_t>(config.preprocess.levels - 1)]),
       coarse_level_(config.preprocess.levels - 1),
-      max_depth_(config.preprocess.max_depth) {}
+      max_depth_(config.preprocess.max_depth),
+      max_speed_(config.inertial.max_speed) {}
 
 void RelocalizationDriver::reset() {
   field_current_ = coarse_current_ = false;
@@ -58,8 +59,12 @@ double RelocalizationDriver::drift_radius(double lost_seconds) const {
 // from it can settle on the wrong stretch of a weakly constrained view, so recovery must be
 // confirmed by the relocalization search.
 bool RelocalizationDriver::long_loss(const Frame& frame) const {
-  return config_.enabled && frame.rotation_from_imu && frame.lost &&
-         drift_radius(frame.timestamp - frame.constrained_time) > icp_reach_;
+  if (!config_.enabled || !frame.lost) return false;
+  const double lost_seconds = frame.timestamp - frame.constrained_time;
+  if (frame.rotation_from_imu) return drift_radius(lost_seconds) > icp_reach_;
+  // Without the gyroscope nothing follows the camera: it may be anywhere a hand-held camera
+  // goes (inertial.max_speed) since the loss, and only the search over orientations confirms.
+  return config_.turn_step_deg > 0 && max_speed_ * lost_seconds > icp_reach_;
 }
 
 // Whether this frame searches for its pose: every relocalization.interval lost frames, the

@@ -69,6 +69,7 @@ class RelocalizationDriver {
   double icp_reach_ = 0;  // m: ICP's largest correspondence distance, at its coarsest level
   int coarse_level_ = 0;  // the pyramid's coarsest level, where the frame's points are taken
   double max_depth_ = 0;  // m: the farthest depth preprocessing keeps
+  double max_speed_ = 0;  // m/s: the fastest a hand-held camera moves (inertial.max_speed)
   // The model's distance field, built at the first search after the model last changed.
   SurfaceDistanceField field_;
   bool field_current_ = false;
