@@ -98,10 +98,10 @@ struct RecoveryConfig {
   /// The drift the recovery measured corrects the velocity dead reckoning carried out of the loss.
   bool correct_velocity = true;
   /// Without the IMU, a lost frame takes ICP's pose along the directions the depth constrains (a
-  /// wall fixes the distance to it and its two tilts), the others held from the frame before; it
-  /// is neither fused nor counted towards recovery. Its pairing need only reach
-  /// tracking.pairing_floor: a lost camera's view leaves the surface the model covers.
-  /// Default on (bench/README.md, "Lost frames without the IMU held to the wall").
+  /// wall fixes the distance to it and its two tilts), the others the seed's (the frame before
+  /// moved on by the last tracked motion); it is neither fused nor counted towards recovery. Its
+  /// pairing need only reach tracking.pairing_floor: a lost camera's view leaves the surface the
+  /// model covers. Default on (bench/README.md, "Lost frames without the IMU held to the wall").
   bool partial_without_imu = true;
 };
 

@@ -29,7 +29,7 @@
 // for a while: the caller says whether a partial frame may still be fused (the IMU's share drifts
 // with time). A partial pose is always better than dead reckoning, so lost frames take it too,
 // but it never counts towards recovery, which must be confirmed in all six directions. Without
-// the IMU only lost frames are placed partly, from the frame before
+// the IMU only lost frames are placed partly, from the frame before moved on by the last motion
 // (ReconstructorConfig::recovery.partial_without_imu).
 //
 // The first frame of a scan (or after reset) defines the world: status tracking, pose source

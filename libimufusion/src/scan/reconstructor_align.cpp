@@ -116,7 +116,7 @@ Result<IcpResult> Reconstructor::Impl::align(const DepthView& depth,
   const auto t0 = Clock::now();
   IcpConfig icp = config.icp;
   // Without the IMU only a lost frame is placed partly (recovery.partial_without_imu): the held
-  // directions keep the frame before's pose, which nothing predicts.
+  // directions keep the seed: the frame before moved on by the last tracked motion.
   const bool lost_without_imu = !navigator && config.recovery.partial_without_imu &&
                                 machine.status() == TrackingStatus::kLost;
   icp.keep_seed_in_degenerate_directions =
