@@ -354,6 +354,39 @@ TEST(RelocalizationWithoutGyro, AFitElsewhereRejectsTheBestOne) {
   EXPECT_FALSE(model.seeds.empty());
 }
 
+TEST(RelocalizationWithoutGyro, TheSearchTakesTheOrientationsTheModelWasScannedFrom) {
+  // Lost upright; the camera comes back pitched 35 deg down and rolled 8 deg, beyond the sweep's
+  // one step of tilt and ICP's basin, but close to a frame that was fused.
+  const auto pitched = [](const Eigen::Vector3d& position, double yaw_deg) {
+    Eigen::Isometry3d T = upright_camera(position, yaw_deg);
+    T.linear() = T.linear() * Eigen::AngleAxisd(-35 * test::kDeg, Eigen::Vector3d::UnitX()) *
+                 Eigen::AngleAxisd(8 * test::kDeg, Eigen::Vector3d::UnitZ());
+    return T;
+  };
+  const Eigen::Isometry3d lost_at = upright_camera(Eigen::Vector3d(0.8, 0.6, 0.6), 0);
+  ReconstructorConfig config;
+  const int searches = 3 * config.relocalization.interval;
+  {
+    TurnedRoomModel model;
+    model.truth = pitched(Eigen::Vector3d(1.2, 0.9, 0.6), 140);
+    RelocalizationDriver driver(config);
+    driver.note_view(lost_at.linear());
+    for (int k = 1; k <= searches; ++k) EXPECT_FALSE(lost_without_gyro(driver, model, k, lost_at));
+    EXPECT_FALSE(model.seeds.empty());
+  }
+  TurnedRoomModel model;
+  model.truth = pitched(Eigen::Vector3d(1.2, 0.9, 0.6), 140);
+  RelocalizationDriver driver(config);
+  driver.note_view(lost_at.linear());
+  driver.note_view(pitched(Eigen::Vector3d(1.0, 1.0, 0.6), 144).linear());  // 4 deg off
+  std::optional<ModelAligner::Placement> found;
+  for (int k = 1; k <= searches && !found; ++k)
+    found = lost_without_gyro(driver, model, k, lost_at);
+  ASSERT_TRUE(found);
+  EXPECT_LT((found->T_world_camera.translation() - model.truth.translation()).norm(), 1e-9);
+  EXPECT_LT(test::angle_between(found->T_world_camera.linear(), model.truth.linear()), 1e-9);
+}
+
 TEST(RelocalizationWithoutGyro, NoSearchWithoutTheGyroWhenTheSweepIsOff) {
   TurnedRoomModel model;
   const Eigen::Isometry3d lost_at = upright_camera(Eigen::Vector3d(0.8, 0.6, 0.6), 0);

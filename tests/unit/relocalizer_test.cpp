@@ -580,5 +580,30 @@ TEST(VolumeSurfacePoints, TakesObservedVoxelsNearTheZeroCrossing) {
   }
 }
 
+// The GPU allocates blocks in whatever order its threads reach them: the points, and so the
+// search's distance field, must not depend on it.
+TEST(VolumeSurfacePoints, DoNotDependOnTheBlocksOrder) {
+  HostVolume volume;
+  volume.voxel_size = 0.01f;
+  for (const Eigen::Vector3i& coord :
+       {Eigen::Vector3i(1, 0, 0), Eigen::Vector3i(0, 2, 0), Eigen::Vector3i(0, 0, -1)}) {
+    VolumeBlock block;
+    block.coord = coord;
+    for (int k = 0; k < kBlockSide; ++k)
+      for (int j = 0; j < kBlockSide; ++j)
+        for (int i = 0; i < kBlockSide; ++i) {
+          Voxel& v = block.voxels[static_cast<std::size_t>(voxel_index(i, j, k))];
+          v.tsdf = 0.2f * static_cast<float>(i - 3);
+          v.weight = 1.0f;
+        }
+    volume.blocks.push_back(block);
+  }
+  const auto points = volume_surface_points(volume);
+  std::reverse(volume.blocks.begin(), volume.blocks.end());
+  EXPECT_EQ(volume_surface_points(volume), points);
+  std::swap(volume.blocks[0], volume.blocks[1]);
+  EXPECT_EQ(volume_surface_points(volume), points);
+}
+
 }  // namespace
 }  // namespace imufusion

@@ -174,8 +174,16 @@ std::vector<Eigen::Vector3d> spread_subset(const std::vector<Eigen::Vector3d>& p
 }
 
 std::vector<Eigen::Vector3d> volume_surface_points(const HostVolume& volume) {
+  std::vector<const VolumeBlock*> sorted;
+  sorted.reserve(volume.blocks.size());
+  for (const VolumeBlock& block : volume.blocks) sorted.push_back(&block);
+  std::sort(sorted.begin(), sorted.end(), [](const VolumeBlock* a, const VolumeBlock* b) {
+    return std::lexicographical_compare(a->coord.data(), a->coord.data() + 3, b->coord.data(),
+                                        b->coord.data() + 3);
+  });
   std::vector<Eigen::Vector3d> points;
-  for (const VolumeBlock& block : volume.blocks) {
+  for (const VolumeBlock* b : sorted) {
+    const VolumeBlock& block = *b;
     for (int k = 0; k < kBlockSide; ++k)
       for (int j = 0; j < kBlockSide; ++j)
         for (int i = 0; i < kBlockSide; ++i) {

@@ -86,7 +86,8 @@ std::vector<Eigen::Vector3d> spread_subset(const std::vector<Eigen::Vector3d>& p
                                            std::size_t count);
 
 /// World points of the zero crossing of a TSDF snapshot: the voxels observed (weight > 0) with
-/// |tsdf| below half the truncation band, one point per voxel.
+/// |tsdf| below half the truncation band, one point per voxel, in the order of the blocks'
+/// coordinates: the same for the same model whatever order the GPU allocated its blocks in.
 std::vector<Eigen::Vector3d> volume_surface_points(const HostVolume& volume);
 
 }  // namespace imufusion

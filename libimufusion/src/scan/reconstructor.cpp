@@ -347,6 +347,7 @@ Status Reconstructor::Impl::fuse_and_record(const TrackingDecision& decision, do
     r.fused = true;
     ++fused_frames;
     relocalization.model_changed();
+    relocalization.note_view(r.T_world_camera.linear());
   }
   if (decision.source == PoseSource::kInitial && decision.fuse) {
     IMUFUSION_RETURN_IF_ERROR(pair_with_own_model(r.timings));
@@ -430,6 +431,7 @@ Result<FrameResult> Reconstructor::fuse_with_pose(double timestamp, const DepthV
   r.integration = *stats;
   r.fused = true;
   m.relocalization.model_changed();
+  m.relocalization.note_view(T_world_camera.linear());
   m.trajectory.push_back({timestamp, T_world_camera});
   m.note_motion(true, timestamp, T_world_camera);
   r.inertial = m.inertial_status();

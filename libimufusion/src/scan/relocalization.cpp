@@ -22,6 +22,7 @@ RelocalizationDriver::RelocalizationDriver(const ReconstructorConfig& config)
 
 void RelocalizationDriver::reset() {
   field_current_ = coarse_current_ = false;
+  views_.clear();
   lost_frames_since_attempt_ = 0;
   forget_ambiguity();
 }
@@ -104,11 +105,21 @@ Status RelocalizationDriver::build_field(ModelAligner& model, const Eigen::Vecto
   return {};
 }
 
+void RelocalizationDriver::note_view(const Eigen::Matrix3d& R_world_camera) {
+  if (config_.turn_step_deg <= 0) return;
+  const Eigen::Quaterniond q(R_world_camera);
+  const double apart = 0.5 * config_.turn_step_deg * std::numbers::pi / 180;
+  if (std::none_of(views_.begin(), views_.end(),
+                   [&](const Eigen::Quaterniond& v) { return v.angularDistance(q) < apart; }))
+    views_.push_back(q);
+}
+
 // Without the gyroscope: the 2 x relocalization.candidates best distinct places over
 // orientations turned about the estimate's vertical (camera y) all the way round and tilted about
-// its camera x, one step up and down, swept on the coarse field with a subset of the points;
-// each place's best orientation, its translation refined on the fine field. Twice the
-// candidates: a fit elsewhere is what rejects a wrong place.
+// its camera x, one step up and down, and each fused frame's orientation (a camera that turns
+// back to the model sees it much as it was scanned), swept on the coarse field with a subset of
+// the points; each place's best orientation, its translation refined on the fine field. Twice
+// the candidates: a fit elsewhere is what rejects a wrong place.
 std::vector<RelocalizationDriver::Oriented> RelocalizationDriver::turned_candidates(
     const std::vector<Eigen::Vector3d>& points, const Eigen::Matrix3d& R_estimate,
     const Eigen::Vector3d& center, double radius) const {
@@ -117,17 +128,19 @@ std::vector<RelocalizationDriver::Oriented> RelocalizationDriver::turned_candida
   const double step = config_.turn_step_deg * std::numbers::pi / 180;
   const int turns = std::max(1, static_cast<int>(std::lround(2 * std::numbers::pi / step)));
   const Eigen::Vector3d up = R_estimate.col(1), side = R_estimate.col(0);
-  std::vector<Oriented> swept;
+  std::vector<Eigen::Matrix3d> orientations;
   for (int k = 0; k < turns; ++k)
-    for (int tilt = -1; tilt <= 1; ++tilt) {
-      const Eigen::Matrix3d R = (Eigen::AngleAxisd(2 * std::numbers::pi * k / turns, up) *
-                                 Eigen::AngleAxisd(tilt * step, side))
-                                    .toRotationMatrix() *
-                                R_estimate;
-      for (const TranslationCandidate& c :
-           coarse_field_.search(few, R, center, radius, 2 * config_.candidates))
-        swept.push_back({R, c});
-    }
+    for (int tilt = -1; tilt <= 1; ++tilt)
+      orientations.push_back((Eigen::AngleAxisd(2 * std::numbers::pi * k / turns, up) *
+                              Eigen::AngleAxisd(tilt * step, side))
+                                 .toRotationMatrix() *
+                             R_estimate);
+  for (const Eigen::Quaterniond& v : views_) orientations.push_back(v.toRotationMatrix());
+  std::vector<Oriented> swept;
+  for (const Eigen::Matrix3d& R : orientations)
+    for (const TranslationCandidate& c :
+         coarse_field_.search(few, R, center, radius, 2 * config_.candidates))
+      swept.push_back({R, c});
   std::sort(swept.begin(), swept.end(),
             [](const Oriented& a, const Oriented& b) { return a.at.cost < b.at.cost; });
   const double apart = 2 * coarse_field_.cell();
@@ -266,8 +279,8 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
 }
 
 void RelocalizationDriver::describe(StateArchive& archive) {
-  archive(field_current_, coarse_current_, lost_frames_since_attempt_, unconfirmed_correction_,
-          ambiguous_alternatives_, confirm_next_, near_fit_);
+  archive(field_current_, coarse_current_, views_, lost_frames_since_attempt_,
+          unconfirmed_correction_, ambiguous_alternatives_, confirm_next_, near_fit_);
   if (archive.reading()) field_ = coarse_field_ = {};
   if (field_current_) archive(field_);
   if (coarse_current_) archive(coarse_field_);

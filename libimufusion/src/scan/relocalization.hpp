@@ -45,6 +45,9 @@ class RelocalizationDriver {
                            FrameTimings& timings);
   /// The model changed (a frame was fused): the distance field is built again at the next search.
   void model_changed() { field_current_ = coarse_current_ = false; }
+  /// A frame was fused at `R_world_camera`: its orientation joins those that the search without
+  /// the gyroscope sweeps, unless one within half a turn step is there already.
+  void note_view(const Eigen::Matrix3d& R_world_camera);
   void reset();
   void describe(StateArchive& archive);  // the changing state, for a saved scan
 
@@ -76,6 +79,9 @@ class RelocalizationDriver {
   // Without the gyroscope: the same at twice the cell, for the sweep over orientations.
   SurfaceDistanceField coarse_field_;
   bool coarse_current_ = false;
+  // The fused frames' orientations (camera to world), at least half a
+  // relocalization.turn_step_deg apart.
+  std::vector<Eigen::Quaterniond> views_;
   int lost_frames_since_attempt_ = 0;
   // World, m: where the last search of this loss put the frame relative to its estimate, when
   // its best fit waits for confirmation (not the only one; without the gyroscope, any), and
