@@ -83,8 +83,8 @@ struct RelocalizationConfig {
   /// deg: without the gyroscope the frame's orientation is lost too, and the search also turns
   /// it about its last tracked vertical (camera y) all the way round in steps of this, each
   /// tilted by one step up and down, and tries each orientation a fused frame had (one per half
-  /// step), within max_radius of where it was lost. 0: no search without the gyroscope.
-  /// Default 15.
+  /// step) that is more than half a step from all of those, within max_radius of where it was
+  /// lost. 0: no search without the gyroscope. Default 15.
   double turn_step_deg = 15;
 };
 

@@ -116,10 +116,10 @@ void RelocalizationDriver::note_view(const Eigen::Matrix3d& R_world_camera) {
 
 // Without the gyroscope: the 2 x relocalization.candidates best distinct places over
 // orientations turned about the estimate's vertical (camera y) all the way round and tilted about
-// its camera x, one step up and down, and each fused frame's orientation (a camera that turns
-// back to the model sees it much as it was scanned), swept on the coarse field with a subset of
-// the points; each place's best orientation, its translation refined on the fine field. Twice
-// the candidates: a fit elsewhere is what rejects a wrong place.
+// its camera x, one step up and down, and each fused frame's orientation beyond those (a camera
+// that turns back to the model sees it much as it was scanned), swept on the coarse field with a
+// subset of the points; each place's best orientation, its translation refined on the fine
+// field. Twice the candidates: a fit elsewhere is what rejects a wrong place.
 std::vector<RelocalizationDriver::Oriented> RelocalizationDriver::turned_candidates(
     const std::vector<Eigen::Vector3d>& points, const Eigen::Matrix3d& R_estimate,
     const Eigen::Vector3d& center, double radius) const {
@@ -135,7 +135,16 @@ std::vector<RelocalizationDriver::Oriented> RelocalizationDriver::turned_candida
                               Eigen::AngleAxisd(tilt * step, side))
                                  .toRotationMatrix() *
                              R_estimate);
-  for (const Eigen::Quaterniond& v : views_) orientations.push_back(v.toRotationMatrix());
+  // A fused frame's orientation within half a step of the sweep's adds nothing to it.
+  const std::size_t swept_count = orientations.size();
+  for (const Eigen::Quaterniond& v : views_) {
+    const Eigen::Matrix3d R_view = v.toRotationMatrix();
+    const auto covered = [&](const Eigen::Matrix3d& R) {
+      return Eigen::AngleAxisd(R.transpose() * R_view).angle() < 0.5 * step;
+    };
+    if (std::none_of(orientations.begin(), orientations.begin() + swept_count, covered))
+      orientations.push_back(R_view);
+  }
   std::vector<Oriented> swept;
   for (const Eigen::Matrix3d& R : orientations)
     for (const TranslationCandidate& c :
