@@ -33,7 +33,7 @@ constexpr std::uint32_t kVersion = 13;  // 2: the lens distortion; 3: the refere
                                         // 10: ICP's steps past its cap;
                                         // 11: the recovery after a relocalization;
                                         // 12: lost frames placed partly without the IMU;
-                                        // 13: the fused frames' viewing directions
+                                        // 13: the fused frames' orientations
 constexpr std::size_t kHeaderBytes = 24;
 
 // Floats in each of the reference maps saved with a scan: four per pixel of the tracking level.
