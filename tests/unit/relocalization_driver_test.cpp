@@ -26,6 +26,7 @@ enum class Fit { kReliable, kIllConditioned, kNone };
 struct ScriptedFit {
   Fit fit = Fit::kNone;
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();  // world, m, from the frame's estimate
+  double residual_per_weight = 1e-6;                 // m^2
 };
 
 class ScriptedModel : public ModelAligner {
@@ -55,7 +56,7 @@ class ScriptedModel : public ModelAligner {
     q.inlier_fraction = scripted.fit == Fit::kNone ? 0.1 : 0.8;
     q.pixel_fraction = q.inlier_fraction;
     q.condition = scripted.fit == Fit::kIllConditioned ? ill_condition : 100;
-    q.residual_per_weight = 1e-6;
+    q.residual_per_weight = scripted.residual_per_weight;
     p.icp.verdict =
         scripted.fit == Fit::kReliable ? IcpVerdict::kReliable : IcpVerdict::kUnreliable;
     return p;
@@ -161,6 +162,31 @@ TEST_F(RelocalizationDriverTest, AnIllConditionedFitThatStaysPutDoesNotBlockTheC
   model.fits = {{Fit::kReliable, correction}, {Fit::kIllConditioned, elsewhere}};
   for (int k = 1; k <= 5; ++k) EXPECT_FALSE(lost_frame(k));
   EXPECT_TRUE(lost_frame(6));
+}
+
+TEST_F(RelocalizationDriverTest, AFitElsewhereThatExplainsTheFrameWorseIsNoRival) {
+  // The fit elsewhere pairs the frame with residuals whose mean square is twice the
+  // relocalization.rival_residual_ratio times the best fit's: the best one is taken at once.
+  const double ratio = config.relocalization.rival_residual_ratio;
+  ASSERT_GT(ratio, 1);
+  model.fits = {{Fit::kReliable, correction, 1e-6},
+                {Fit::kIllConditioned, elsewhere, 2 * ratio * 1e-6}};
+  for (int k = 1; k <= 4; ++k) EXPECT_FALSE(lost_frame(k));
+  EXPECT_TRUE(placed_at_correction(lost_frame(5), 5));
+}
+
+TEST_F(RelocalizationDriverTest, AFitElsewhereWithinTheRatioKeepsTheViewAmbiguous) {
+  // The same fit elsewhere, its mean square residual half the ratio times the best's: a rival.
+  const double ratio = config.relocalization.rival_residual_ratio;
+  model.fits = {{Fit::kReliable, correction, 1e-6},
+                {Fit::kIllConditioned, elsewhere, 0.5 * ratio * 1e-6}};
+  for (int k = 1; k <= 5; ++k) EXPECT_FALSE(lost_frame(k));
+  // With the ratio off, any fit elsewhere is a rival, however badly it explains the frame (30
+  // times the best's mean square, within the residual test's 4.22e-5 m^2).
+  config.relocalization.rival_residual_ratio = 0;
+  driver = RelocalizationDriver(config);
+  model.fits = {{Fit::kReliable, correction, 1e-6}, {Fit::kIllConditioned, elsewhere, 30e-6}};
+  for (int k = 6; k <= 10; ++k) EXPECT_FALSE(lost_frame(k));
 }
 
 TEST_F(RelocalizationDriverTest, AFrameThatIsNotLostForgetsTheCorrectionWaitingForConfirmation) {
@@ -352,6 +378,49 @@ TEST(RelocalizationWithoutGyro, AFitElsewhereRejectsTheBestOne) {
   for (int k = 1; k <= 4 * config.relocalization.interval; ++k)
     EXPECT_FALSE(lost_without_gyro(driver, model, k, lost_at));
   EXPECT_FALSE(model.seeds.empty());
+}
+
+TEST(RelocalizationWithoutGyro, AFitElsewhereThatExplainsTheFrameWorseRejectsNothing) {
+  // The place 0.6 m away fits but for the condition number, its residual per weight 30 times
+  // the true place's (a wall the view shares, its other points far off): the true place is
+  // the only fit, and the next search confirms it.
+  class WallElsewhere : public TurnedRoomModel {
+   public:
+    Result<Placement> place(const DepthView& depth, const Eigen::Isometry3d& seed,
+                            FrameTimings& timings) override {
+      auto p = TurnedRoomModel::place(depth, seed, timings);
+      if (p && !p->icp.reliable() && !alias_placed_) {
+        alias_placed_ = true;
+        p->T_world_camera.translation() = truth.translation() + Eigen::Vector3d(0.6, 0, 0);
+        p->icp.quality.inlier_fraction = p->icp.quality.pixel_fraction = 0.7;
+        p->icp.quality.condition = 3000;
+        p->icp.quality.residual_per_weight = 30e-6;
+      }
+      return p;
+    }
+    Result<std::vector<Eigen::Vector3d>> frame_points(int level) override {
+      alias_placed_ = false;  // each search meets the alias once
+      return TurnedRoomModel::frame_points(level);
+    }
+
+   private:
+    bool alias_placed_ = false;
+  } model;
+  const Eigen::Isometry3d lost_at = upright_camera(Eigen::Vector3d(0.8, 0.6, 0.6), 0);
+  model.truth = upright_camera(Eigen::Vector3d(1.2, 0.9, 0.6), 140);
+  ReconstructorConfig config;
+  RelocalizationDriver driver(config);
+  for (int k = 1; k <= config.relocalization.interval; ++k)
+    EXPECT_FALSE(lost_without_gyro(driver, model, k, lost_at));
+  const std::optional<ModelAligner::Placement> found =
+      lost_without_gyro(driver, model, config.relocalization.interval + 1, lost_at);
+  ASSERT_TRUE(found);
+  EXPECT_LT((found->T_world_camera.translation() - model.truth.translation()).norm(), 1e-9);
+  // Every fit elsewhere a rival, as before the ratio: nothing is taken.
+  config.relocalization.rival_residual_ratio = 0;
+  RelocalizationDriver strict(config);
+  for (int k = 1; k <= 4 * config.relocalization.interval; ++k)
+    EXPECT_FALSE(lost_without_gyro(strict, model, k, lost_at));
 }
 
 TEST(RelocalizationWithoutGyro, TheSearchTakesTheOrientationsTheModelWasScannedFrom) {

@@ -86,6 +86,11 @@ struct RelocalizationConfig {
   /// step) that is more than half a step from all of those, within max_radius of where it was
   /// lost. 0: no search without the gyroscope. Default 15.
   double turn_step_deg = 15;
+  /// A fit elsewhere (ICP from another candidate, reliable but for the condition number) makes
+  /// the view ambiguous only when its residual per weight is within this factor of the best
+  /// fit's; 0: any fit elsewhere. Default 4: an RMS residual twice the best's (bench/README.md,
+  /// "A rival fit must explain the view as well").
+  double rival_residual_ratio = 4;
 };
 
 /// How a lost frame settles onto the model again.

@@ -205,9 +205,9 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
   IcpReliabilityThresholds plausible = model.reliability(depth);
   const double max_condition = plausible.max_condition;
   plausible.max_condition = std::numeric_limits<double>::infinity();
-  std::vector<Eigen::Vector3d> fits;       // where the frame fits but for the condition number
-  std::vector<Eigen::Vector3d> placed_at;  // where it fits in every direction (reliable)
-  FrameTimings candidate_timings;          // kept out of the frame's ICP and raycast times
+  std::vector<Fit> fits;           // where the frame fits but for the condition number
+  std::vector<Fit> placed_at;      // where it fits in every direction (reliable)
+  FrameTimings candidate_timings;  // kept out of the frame's ICP and raycast times
   for (const auto& [R_candidate, c] : candidates) {
     if (c.near_fraction < plausible.min_inlier_fraction) continue;
     Eigen::Isometry3d T_candidate = Eigen::Isometry3d::Identity();
@@ -218,7 +218,7 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
     if (!placed) return placed.error();
     const IcpResult& icp = placed->icp;
     if (icp.quality.iterations > 0 && judge_icp(icp.quality, plausible, nullptr)) {
-      fits.push_back(placed->T_world_camera.translation());
+      fits.push_back({placed->T_world_camera.translation(), icp.quality.residual_per_weight});
       // A fit that only the condition number fails, narrowly: the next frame searches again
       // (at the gyro's orientation; a sweep over orientations finds such fits anywhere).
       near_fit_ =
@@ -226,13 +226,18 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
                         icp.quality.condition <= config_.near_fit_condition_factor * max_condition);
     }
     if (!icp.reliable() || !icp.quality.converged) continue;
-    placed_at.push_back(placed->T_world_camera.translation());
+    placed_at.push_back({placed->T_world_camera.translation(), icp.quality.residual_per_weight});
     if (!best || icp.quality.residual_per_weight < best->icp.quality.residual_per_weight)
       best = std::move(*placed);
   }
   const double apart = 2 * config_.cell;
-  const auto elsewhere = [&](const Eigen::Vector3d& p) {
-    return (p - best->T_world_camera.translation()).norm() > apart;
+  // A fit elsewhere that explains the frame about as well as the best one: its residual per
+  // weight within relocalization.rival_residual_ratio of the best's (0: any fit elsewhere).
+  const auto rival = [&](const Fit& f) {
+    return (f.at - best->T_world_camera.translation()).norm() > apart &&
+           (config_.rival_residual_ratio <= 0 ||
+            f.residual_per_weight <=
+                config_.rival_residual_ratio * best->icp.quality.residual_per_weight);
   };
   const auto near = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
     return (a - b).norm() <= apart;
@@ -242,10 +247,10 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
       best ? Eigen::Vector3d(best->T_world_camera.translation() - T_estimate.translation())
            : Eigen::Vector3d::Zero();
   if (turning) {
-    // Free to turn, a view fits a room's like-looking corners and walls: a fit anywhere else
+    // Free to turn, a view fits a room's like-looking corners and walls: a rival anywhere else
     // rejects the best one, and the only fit takes the frame once the next search, from the next
     // lost frame, puts its only fit at the same place.
-    const bool unique = best && std::none_of(fits.begin(), fits.end(), elsewhere);
+    const bool unique = best && std::none_of(fits.begin(), fits.end(), rival);
     const bool confirmed =
         unique && unconfirmed_correction_ && near(correction, *unconfirmed_correction_);
     confirm_next_ = unique && !confirmed && !unconfirmed_correction_;
@@ -255,7 +260,7 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
       unconfirmed_correction_.reset();
     ambiguous_alternatives_.clear();
     if (!confirmed) best.reset();
-  } else if (best && std::any_of(fits.begin(), fits.end(), elsewhere)) {
+  } else if (best && std::any_of(fits.begin(), fits.end(), rival)) {
     // An ambiguous view is accepted when the last search of this loss, from another view, put
     // its best fit at the same correction of the estimate and no reliable fit where this one has
     // another: the coincidences of a view (a wall's slide, a stretch of the model not yet
@@ -263,8 +268,8 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
     // fit that is only ill-conditioned barely moves along its slide from where the search
     // started it, so its place says nothing either way.
     std::vector<Eigen::Vector3d> others;  // the reliable fits elsewhere, as corrections
-    for (const Eigen::Vector3d& p : placed_at)
-      if (elsewhere(p)) others.push_back(p - T_estimate.translation());
+    for (const Fit& f : placed_at)
+      if (rival(f)) others.push_back(f.at - T_estimate.translation());
     const bool confirmed =
         unconfirmed_correction_ && near(correction, *unconfirmed_correction_) &&
         std::none_of(others.begin(), others.end(), [&](const Eigen::Vector3d& a) {

@@ -52,6 +52,11 @@ class RelocalizationDriver {
   void describe(StateArchive& archive);  // the changing state, for a saved scan
 
  private:
+  // Where a candidate's ICP placed the frame (world, m) and its residual per weight (m^2).
+  struct Fit {
+    Eigen::Vector3d at;
+    double residual_per_weight = 0;
+  };
   // A place the search proposes: the frame's orientation there and its translation.
   struct Oriented {
     Eigen::Matrix3d R_world_camera;
