@@ -305,13 +305,14 @@ Eigen::Isometry3d upright_camera(const Eigen::Vector3d& position, double yaw_deg
   return T;
 }
 
-// The frame lost `k` frames without a gyroscope, at the estimate `T_estimate` (where the scan
-// was lost); the search's outcome.
+// The frame lost `k` frames without a gyroscope (`fps` frames a second), at the estimate
+// `T_estimate` (where the scan was lost); the search's outcome.
 std::optional<ModelAligner::Placement> lost_without_gyro(RelocalizationDriver& driver,
                                                          ModelAligner& model, int k,
-                                                         const Eigen::Isometry3d& T_estimate) {
+                                                         const Eigen::Isometry3d& T_estimate,
+                                                         double fps = 30) {
   RelocalizationDriver::Frame f;
-  f.timestamp = k / 30.0;
+  f.timestamp = k / fps;
   f.lost = true;
   f.rotation_from_imu = false;
   f.T_world_estimate = T_estimate;
@@ -345,6 +346,40 @@ TEST(RelocalizationWithoutGyro, TheSearchFindsAFrameThatTurnedAndMovedWhileLost)
   EXPECT_LT(test::angle_between(model.seeds.front().linear(), model.truth.linear()),
             7.5 * test::kDeg);
   EXPECT_LT((model.seeds.front().translation() - model.truth.translation()).norm(), 0.15);
+}
+
+TEST(RelocalizationWithoutGyro, TheConfirmationAllowsForWhatTheCameraMovesBetweenTheFrames) {
+  // The camera moves 0.2 m between the lost frame whose search finds the only fit and the next
+  // one, while the estimate stays where the scan was lost.
+  const Eigen::Isometry3d lost_at = upright_camera(Eigen::Vector3d(0.8, 0.6, 0.6), 0);
+  const Eigen::Isometry3d first = upright_camera(Eigen::Vector3d(1.2, 0.9, 0.6), 140);
+  const Eigen::Isometry3d moved = upright_camera(Eigen::Vector3d(1.2, 0.7, 0.6), 140);
+  const ReconstructorConfig config;
+  const int n = config.relocalization.interval;
+  {
+    // 4 frames a second: 0.2 m in 0.25 s is within a hand-held camera's 2 m/s, and confirms.
+    TurnedRoomModel model;
+    RelocalizationDriver driver(config);
+    model.truth = first;
+    for (int k = 1; k <= n; ++k) EXPECT_FALSE(lost_without_gyro(driver, model, k, lost_at, 4));
+    model.truth = moved;
+    const auto found = lost_without_gyro(driver, model, n + 1, lost_at, 4);
+    ASSERT_TRUE(found);
+    EXPECT_LT((found->T_world_camera.translation() - moved.translation()).norm(), 1e-9);
+  }
+  {
+    // 30 frames a second: 0.2 m in a frame is beyond it. The next lost frame searches again
+    // and confirms the second fit where the camera stays.
+    TurnedRoomModel model;
+    RelocalizationDriver driver(config);
+    model.truth = first;
+    for (int k = 1; k <= n; ++k) EXPECT_FALSE(lost_without_gyro(driver, model, k, lost_at));
+    model.truth = moved;
+    EXPECT_FALSE(lost_without_gyro(driver, model, n + 1, lost_at));
+    const auto found = lost_without_gyro(driver, model, n + 2, lost_at);
+    ASSERT_TRUE(found);
+    EXPECT_LT((found->T_world_camera.translation() - moved.translation()).norm(), 1e-9);
+  }
 }
 
 TEST(RelocalizationWithoutGyro, AFitElsewhereRejectsTheBestOne) {

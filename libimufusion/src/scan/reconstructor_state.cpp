@@ -34,7 +34,8 @@ constexpr std::uint32_t kVersion = 14;  // 2: the lens distortion; 3: the refere
                                         // 11: the recovery after a relocalization;
                                         // 12: lost frames placed partly without the IMU;
                                         // 13: the fused frames' orientations;
-                                        // 14: relocalization's rival residual ratio
+                                        // 14: relocalization's rival residual ratio and
+                                        //     the time of a fit awaiting confirmation
 constexpr std::size_t kHeaderBytes = 24;
 
 // Floats in each of the reference maps saved with a scan: four per pixel of the tracking level.

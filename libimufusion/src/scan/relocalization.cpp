@@ -249,15 +249,22 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
   if (turning) {
     // Free to turn, a view fits a room's like-looking corners and walls: a rival anywhere else
     // rejects the best one, and the only fit takes the frame once the next search, from the next
-    // lost frame, puts its only fit at the same place.
+    // lost frame, puts its only fit at the same place. The estimate stays where the scan was
+    // lost while the camera moves on, so the same place is within two cells and what a hand-held
+    // camera moves between the two frames (inertial.max_speed). An only fit that the next
+    // search does not confirm has the lost frame after it search again.
     const bool unique = best && std::none_of(fits.begin(), fits.end(), rival);
     const bool confirmed =
-        unique && unconfirmed_correction_ && near(correction, *unconfirmed_correction_);
-    confirm_next_ = unique && !confirmed && !unconfirmed_correction_;
-    if (unique)
+        unique && unconfirmed_correction_ &&
+        (correction - *unconfirmed_correction_).norm() <=
+            apart + max_speed_ * std::max(0.0, frame.timestamp - unconfirmed_time_);
+    confirm_next_ = unique && !confirmed;
+    if (unique) {
       unconfirmed_correction_ = correction;
-    else
+      unconfirmed_time_ = frame.timestamp;
+    } else {
       unconfirmed_correction_.reset();
+    }
     ambiguous_alternatives_.clear();
     if (!confirmed) best.reset();
   } else if (best && std::any_of(fits.begin(), fits.end(), rival)) {
@@ -294,7 +301,8 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
 
 void RelocalizationDriver::describe(StateArchive& archive) {
   archive(field_current_, coarse_current_, views_, lost_frames_since_attempt_,
-          unconfirmed_correction_, ambiguous_alternatives_, confirm_next_, near_fit_);
+          unconfirmed_correction_, unconfirmed_time_, ambiguous_alternatives_, confirm_next_,
+          near_fit_);
   if (archive.reading()) field_ = coarse_field_ = {};
   if (field_current_) archive(field_);
   if (coarse_current_) archive(coarse_field_);

@@ -92,6 +92,7 @@ class RelocalizationDriver {
   // its best fit waits for confirmation (not the only one; without the gyroscope, any), and
   // its other reliable fits.
   std::optional<Eigen::Vector3d> unconfirmed_correction_;
+  double unconfirmed_time_ = 0;  // s: the timestamp of that search's frame
   std::vector<Eigen::Vector3d> ambiguous_alternatives_;
   bool confirm_next_ = false;  // the next lost frame searches to confirm it
   bool near_fit_ = false;      // the last search's best fit failed only the condition, narrowly
