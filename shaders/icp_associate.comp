@@ -8,7 +8,9 @@ layout(std430, set = 0, binding = 1) readonly buffer CurNormals { vec4 cur_norma
 layout(std430, set = 0, binding = 2) readonly buffer RefVertices { vec4 ref_vertices[]; };
 layout(std430, set = 0, binding = 3) readonly buffer RefNormals { vec4 ref_normals[]; };
 // Two vec4 per current pixel: (a0..a3), (a4, a5, b, w); w = 0: no vertex or normal here,
-// w = -1: a valid pixel whose pair was rejected.
+// w = -1: a valid pixel whose pair was rejected, w = -2: a valid pixel the reference does not
+// cover (its projection falls behind the camera, outside the image or on a pixel without a
+// vertex or normal).
 layout(std430, set = 0, binding = 4) writeonly buffer Rows { vec4 rows[]; };
 layout(push_constant) uniform Push { IcpAssociateParams p; };
 
@@ -31,21 +33,21 @@ void main() {
   vec3 pt = R * v.xyz + vec3(p.tx, p.ty, p.tz);
   vec3 m = R * n.xyz;
   if (pt.z <= 0.0) {
-    reject(i, -1.0);
+    reject(i, -2.0);
     return;
   }
   // Nearest reference pixel to the projection (pixel centres at integer coordinates).
   float u = floor(p.fx * pt.x / pt.z + p.cx + 0.5);
   float w = floor(p.fy * pt.y / pt.z + p.cy + 0.5);
   if (u < 0.0 || w < 0.0 || u >= float(p.ref_width) || w >= float(p.ref_height)) {
-    reject(i, -1.0);
+    reject(i, -2.0);
     return;
   }
   uint j = uint(w) * p.ref_width + uint(u);
   vec4 q = ref_vertices[j];
   vec4 g = ref_normals[j];
   if (q.w <= 0.0 || g.w <= 0.0) {
-    reject(i, -1.0);
+    reject(i, -2.0);
     return;
   }
   float dist = distance(pt, q.xyz);

@@ -31,6 +31,10 @@ void accumulate_rows(uint g, uint t, uint stride) {
     }
     acc[30] += information;
     acc[32] += 1.0;
+    if (w == -2.0) {
+      acc[33] += information;
+      acc[34] += 1.0;
+    }
     if (w < 0.0) continue;
     acc[31] += information;
     // The upper triangle of w a a^T row by row, then w a b, written out: a loop over an index

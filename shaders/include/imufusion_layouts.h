@@ -125,9 +125,10 @@ struct IcpPhotometricParams {
 // (noise_a / sigma(z))^2, sigma(z) = noise_a + noise_b (z - noise_z0)^2 (1 when noise_a = 0), of
 // the current vertex over the current pixels with a vertex and a normal (rows with w != 0:
 // association writes w = -1 for such a pixel whose pair it rejected) and over the paired ones,
-// and the number of those valid pixels. The host adds the partials in double.
-#define ICP_REDUCE_VALUES 33
-#define ICP_PARTIAL_STRIDE 33
+// the number of those valid pixels, and the information and number of the valid pixels the
+// reference does not cover (w = -2). The host adds the partials in double.
+#define ICP_REDUCE_VALUES 35
+#define ICP_PARTIAL_STRIDE 35
 #define ICP_ROW_FLOATS 8
 struct IcpReduceParams {
   uint row_count;

@@ -49,7 +49,9 @@ struct NormalGate {
 /// AtA = sum w a a^T, Atb = sum w a b, btb = sum w b^2 (m^2), inliers = number of pairs,
 /// weight_sum = sum w. valid_pixels counts the current pixels with a vertex and a normal;
 /// valid_information and inlier_information sum DepthNoiseModel::information of the current
-/// frame's depth over those pixels and over those paired.
+/// frame's depth over those pixels and over those paired; uncovered_pixels and
+/// uncovered_information count those valid pixels that the reference does not cover (their
+/// projection falls behind the camera, outside its image or where it has no surface).
 struct NormalEquations {
   Eigen::Matrix<double, 6, 6> AtA = Eigen::Matrix<double, 6, 6>::Zero();
   Eigen::Matrix<double, 6, 1> Atb = Eigen::Matrix<double, 6, 1>::Zero();
@@ -59,6 +61,8 @@ struct NormalEquations {
   std::uint64_t valid_pixels = 0;
   double valid_information = 0;
   double inlier_information = 0;
+  std::uint64_t uncovered_pixels = 0;
+  double uncovered_information = 0;
   /// A photometric term (add_photometric), in the depth's units: the solve adds it to AtA and
   /// Atb; kappa, the residual, the pairing figures and the weights stay the depth's alone.
   Eigen::Matrix<double, 6, 6> photometric_AtA = Eigen::Matrix<double, 6, 6>::Zero();
@@ -76,6 +80,15 @@ struct NormalEquations {
   /// The paired share of the valid pixels, each counting one (0 when none).
   double pixel_fraction() const {
     return valid_pixels > 0 ? double(inliers) / double(valid_pixels) : 0;
+  }
+  /// The share of the valid pixels' information that the reference covers (0 when none).
+  double covered_fraction() const {
+    return valid_information > 0 ? 1 - uncovered_information / valid_information : 0;
+  }
+  /// The paired share of the covered pixels, each counted by its information (0 when none).
+  double covered_inlier_fraction() const {
+    const double covered = valid_information - uncovered_information;
+    return covered > 0 ? inlier_information / covered : 0;
   }
 };
 
@@ -223,6 +236,8 @@ struct IcpQuality {
   std::uint64_t inliers = 0;       // n
   double inlier_fraction = 0;      // inlier_information / valid_information (NormalEquations)
   double pixel_fraction = 0;       // inliers / valid_pixels
+  double covered_fraction = 0;     // NormalEquations::covered_fraction
+  double covered_inlier_fraction = 0;  // NormalEquations::covered_inlier_fraction
   double weight_sum = 0;           // sum(w)
   double condition = 0;            // kappa = sigma_max / sigma_min of AtA (inf when singular)
   int iterations = 0;              // Gauss-Newton steps run, all levels

@@ -157,6 +157,8 @@ Result<NormalEquations> read_partials(const Buffer& buffer, std::uint32_t groups
   eq.valid_information = sums[30];
   eq.inlier_information = sums[31];
   eq.valid_pixels = static_cast<std::uint64_t>(sums[32] + 0.5);
+  eq.uncovered_information = sums[33];
+  eq.uncovered_pixels = static_cast<std::uint64_t>(sums[34] + 0.5);
   return eq;
 }
 

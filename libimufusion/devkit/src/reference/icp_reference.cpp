@@ -27,6 +27,7 @@ std::vector<IcpRow> icp_associate(const Vec4Image& cur_vertices, const Vec4Image
     const Eigen::Vector4f& q4 = ref_vertices.at(static_cast<int>(u), static_cast<int>(w));
     const Eigen::Vector4f& g4 = ref_normals.at(static_cast<int>(u), static_cast<int>(w));
     if (q4.w() <= 0 || g4.w() <= 0) continue;
+    rows[i].covered = true;
     const Eigen::Vector3d q = q4.head<3>().cast<double>();
     const Eigen::Vector3d g = g4.head<3>().cast<double>();
     const double dist = (p - q).norm();
@@ -50,6 +51,10 @@ NormalEquations icp_reduce(const std::vector<IcpRow>& rows, const DepthNoiseMode
     const double information = noise.information(row.z);
     eq.valid_information += information;
     eq.valid_pixels += 1;
+    if (!row.covered) {
+      eq.uncovered_information += information;
+      eq.uncovered_pixels += 1;
+    }
     if (row.w <= 0) continue;
     eq.inlier_information += information;
     eq.AtA += row.w * row.a * row.a.transpose();

@@ -12,12 +12,15 @@
 namespace imufusion::reference {
 
 /// One association result: the row a (6), b and weight w (0 = rejected); `valid` when the
-/// current pixel has a vertex and a normal, and then z, the current vertex's depth.
+/// current pixel has a vertex and a normal, and then z, the current vertex's depth, and
+/// `covered` when its projection lands in front of the camera on a reference pixel with a vertex
+/// and a normal.
 struct IcpRow {
   Eigen::Matrix<double, 6, 1> a = Eigen::Matrix<double, 6, 1>::Zero();
   double b = 0;
   double w = 0;
   bool valid = false;
+  bool covered = false;
   double z = 0;
 };
 
