@@ -230,19 +230,19 @@ struct IcpConfig {
 
 /// ICP quality, from the last Gauss-Newton step at the finest level run.
 struct IcpQuality {
-  double residual = 0;             // r = sum w (a.x - b)^2 at the solution x, m^2
-  double residual_per_inlier = 0;  // r / n
-  double residual_per_weight = 0;  // r / sum(w)
-  std::uint64_t inliers = 0;       // n
-  double inlier_fraction = 0;      // inlier_information / valid_information (NormalEquations)
-  double pixel_fraction = 0;       // inliers / valid_pixels
-  double covered_fraction = 0;     // NormalEquations::covered_fraction
+  double residual = 0;                 // r = sum w (a.x - b)^2 at the solution x, m^2
+  double residual_per_inlier = 0;      // r / n
+  double residual_per_weight = 0;      // r / sum(w)
+  std::uint64_t inliers = 0;           // n
+  double inlier_fraction = 0;          // inlier_information / valid_information (NormalEquations)
+  double pixel_fraction = 0;           // inliers / valid_pixels
+  double covered_fraction = 0;         // NormalEquations::covered_fraction
   double covered_inlier_fraction = 0;  // NormalEquations::covered_inlier_fraction
-  double weight_sum = 0;           // sum(w)
-  double condition = 0;            // kappa = sigma_max / sigma_min of AtA (inf when singular)
-  int iterations = 0;              // Gauss-Newton steps run, all levels
-  int coarse_iterations = 0;       // of those, the steps run below full resolution (levels 1..)
-  bool converged = false;          // the finest level's update fell below the thresholds
+  double weight_sum = 0;               // sum(w)
+  double condition = 0;                // kappa = sigma_max / sigma_min of AtA (inf when singular)
+  int iterations = 0;                  // Gauss-Newton steps run, all levels
+  int coarse_iterations = 0;           // of those, the steps run below full resolution (levels 1..)
+  bool converged = false;              // the finest level's update fell below the thresholds
   /// Directions of the last step updated by ICP: 6 unless degeneracy-aware solving left some at
   /// the initial pose.
   int constrained_directions = 6;
