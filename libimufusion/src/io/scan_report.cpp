@@ -33,7 +33,8 @@ std::string frames_csv_header() {
   return "timestamp,status,pose_source,icp_iterations,residual,inliers,weight_sum,condition,fused,"
          "ms,"
          "icp_reliable,icp_reason,icp_directions,imu_disagreement,imu_chi2,imu_agreed,inlier_"
-         "fraction,pixel_fraction,covered_fraction,covered_inlier_fraction,relocalized,recovery_restarted,imu_rotation,imu_coverage,gyro_"
+         "fraction,pixel_fraction,covered_fraction,covered_inlier_fraction,relocalized,recovery_"
+         "restarted,imu_rotation,imu_coverage,gyro_"
          "bias_x,gyro_bias_y,gyro_bias_z,"
          "R_camera_imu_estimated,R_camera_imu_sigma_deg,blocks,pool_full,tx,ty,tz,qx,qy,qz,qw";
 }
