@@ -484,7 +484,7 @@ TEST(IcpReduce, PixelsCountInTheInlierFractionByTheirInformation) {
   // Half the valid pixels near and paired, half far and rejected (their normals failed the gate).
   std::vector<reference::IcpRow> rows(4);
   for (int i = 0; i < 4; ++i) {
-    rows[static_cast<std::size_t>(i)].valid = true;
+    rows[static_cast<std::size_t>(i)].valid = rows[static_cast<std::size_t>(i)].covered = true;
     rows[static_cast<std::size_t>(i)].z = i < 2 ? 1.0 : 4.0;
   }
   rows[0].w = rows[1].w = 0.9;
@@ -499,6 +499,31 @@ TEST(IcpReduce, PixelsCountInTheInlierFractionByTheirInformation) {
   EXPECT_GT(eq.inlier_information / eq.valid_information, 0.99);
   const NormalEquations counted = reference::icp_reduce(rows, DepthNoiseModel{0, 0, 0});
   EXPECT_DOUBLE_EQ(counted.inlier_information / counted.valid_information, 0.5);
+}
+
+TEST(IcpReduce, TheInlierFractionCountsOnlyThePixelsTheReferenceCovers) {
+  // Ten valid pixels at 1 m: four the reference does not cover (the view turned past the model),
+  // and of the six it covers five paired.
+  std::vector<reference::IcpRow> rows(10);
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    rows[i].valid = true;
+    rows[i].z = 1.0;
+    rows[i].covered = i >= 4;
+    if (i >= 5) {
+      rows[i].w = 0.9;
+      rows[i].a << 0, 0, 0, 0, 0, 1;
+    }
+  }
+  const NormalEquations eq = reference::icp_reduce(rows, DepthNoiseModel{});
+  EXPECT_EQ(eq.uncovered_pixels, 4u);
+  EXPECT_NEAR(eq.covered_fraction(), 0.6, 1e-12);
+  EXPECT_NEAR(eq.inlier_fraction(), 5.0 / 6.0, 1e-12);
+  EXPECT_NEAR(eq.pixel_fraction(), 0.5, 1e-12);  // all valid pixels count here
+  EXPECT_NEAR(eq.inlier_fraction() * eq.covered_fraction(),
+              eq.inlier_information / eq.valid_information, 1e-12);
+  // Nothing covered: no fraction at all.
+  for (reference::IcpRow& row : rows) row.covered = false, row.w = 0;
+  EXPECT_EQ(reference::icp_reduce(rows, DepthNoiseModel{}).inlier_fraction(), 0.0);
 }
 
 // Normal equations of a quadratic cost whose minimum is the pose `target` (as T_ref_cur), with
