@@ -46,6 +46,7 @@ void bind_frame_result(py::module_& m) {
       .def_readonly("inlier_fraction", &IcpQuality::inlier_fraction)
       .def_readonly("pixel_fraction", &IcpQuality::pixel_fraction)
       .def_readonly("covered_fraction", &IcpQuality::covered_fraction)
+      .def_readonly("covered_inlier_fraction", &IcpQuality::covered_inlier_fraction)
       .def_readonly("residual_per_weight", &IcpQuality::residual_per_weight, "m^2")
       .def_readonly("condition", &IcpQuality::condition, "kappa of A^T A")
       .def_readonly("converged", &IcpQuality::converged)

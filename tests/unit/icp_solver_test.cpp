@@ -501,7 +501,7 @@ TEST(IcpReduce, PixelsCountInTheInlierFractionByTheirInformation) {
   EXPECT_DOUBLE_EQ(counted.inlier_information / counted.valid_information, 0.5);
 }
 
-TEST(IcpReduce, TheInlierFractionCountsOnlyThePixelsTheReferenceCovers) {
+TEST(IcpReduce, ThePixelsTheReferenceDoesNotCoverAreCounted) {
   // Ten valid pixels at 1 m: four the reference does not cover (the view turned past the model),
   // and of the six it covers five paired.
   std::vector<reference::IcpRow> rows(10);
@@ -517,13 +517,12 @@ TEST(IcpReduce, TheInlierFractionCountsOnlyThePixelsTheReferenceCovers) {
   const NormalEquations eq = reference::icp_reduce(rows, DepthNoiseModel{});
   EXPECT_EQ(eq.uncovered_pixels, 4u);
   EXPECT_NEAR(eq.covered_fraction(), 0.6, 1e-12);
-  EXPECT_NEAR(eq.inlier_fraction(), 5.0 / 6.0, 1e-12);
-  EXPECT_NEAR(eq.pixel_fraction(), 0.5, 1e-12);  // all valid pixels count here
-  EXPECT_NEAR(eq.inlier_fraction() * eq.covered_fraction(),
-              eq.inlier_information / eq.valid_information, 1e-12);
-  // Nothing covered: no fraction at all.
+  EXPECT_NEAR(eq.covered_inlier_fraction(), 5.0 / 6.0, 1e-12);
+  EXPECT_NEAR(eq.inlier_fraction(), 0.5, 1e-12);  // over every valid pixel
+  EXPECT_NEAR(eq.covered_inlier_fraction() * eq.covered_fraction(), eq.inlier_fraction(), 1e-12);
+  // Nothing covered: no fraction of it.
   for (reference::IcpRow& row : rows) row.covered = false, row.w = 0;
-  EXPECT_EQ(reference::icp_reduce(rows, DepthNoiseModel{}).inlier_fraction(), 0.0);
+  EXPECT_EQ(reference::icp_reduce(rows, DepthNoiseModel{}).covered_inlier_fraction(), 0.0);
 }
 
 // Normal equations of a quadratic cost whose minimum is the pose `target` (as T_ref_cur), with

@@ -73,12 +73,9 @@ struct NormalEquations {
   Eigen::Matrix<double, 6, 6> system_AtA() const { return AtA + photometric_AtA; }
   Eigen::Matrix<double, 6, 1> system_Atb() const { return Atb + photometric_Atb; }
 
-  /// The paired share of the valid pixels the reference covers, each counted by its information
-  /// (0 when none): a view that turns to surface the model lacks pairs as well as before where
-  /// the model is. The paired share of all of them is inlier_fraction() * covered_fraction().
+  /// The paired share of the valid pixels, each counted by its information (0 when none).
   double inlier_fraction() const {
-    const double covered = valid_information - uncovered_information;
-    return covered > 0 ? inlier_information / covered : 0;
+    return valid_information > 0 ? inlier_information / valid_information : 0;
   }
   /// The paired share of the valid pixels, each counting one (0 when none).
   double pixel_fraction() const {
@@ -87,6 +84,11 @@ struct NormalEquations {
   /// The share of the valid pixels' information that the reference covers (0 when none).
   double covered_fraction() const {
     return valid_information > 0 ? 1 - uncovered_information / valid_information : 0;
+  }
+  /// The paired share of the covered pixels, each counted by its information (0 when none).
+  double covered_inlier_fraction() const {
+    const double covered = valid_information - uncovered_information;
+    return covered > 0 ? inlier_information / covered : 0;
   }
 };
 
@@ -109,11 +111,9 @@ void add_photometric(NormalEquations& eq, const NormalEquations& photo, double w
 struct IcpReliabilityThresholds {
   double max_condition = 562.3;              // kappa = sigma_max / sigma_min of AtA
   double max_residual_per_weight = 4.22e-5;  // r / sum(w), m^2
-  /// The paired share of the current frame's valid pixels that the reference covers, each
-  /// counted by its inverse depth noise variance (DepthNoiseModel::information): far pixels,
-  /// whose normals scatter past the normal-angle gate wherever the frame is aligned, count
-  /// little, and pixels of surface the model lacks not at all (bench/README.md, "The pairing
-  /// over the pixels the model covers").
+  /// The paired share of the current frame's valid pixels, each counted by its inverse depth
+  /// noise variance (DepthNoiseModel::information): far pixels, whose normals scatter past the
+  /// normal-angle gate wherever the frame is aligned, count little.
   double min_inlier_fraction = 0.40;
   /// The paired share of the current frame's valid pixels, each pixel counting one: a pose that
   /// slid along the model leaves its far pixels unpaired, which the information-weighted
@@ -230,18 +230,19 @@ struct IcpConfig {
 
 /// ICP quality, from the last Gauss-Newton step at the finest level run.
 struct IcpQuality {
-  double residual = 0;             // r = sum w (a.x - b)^2 at the solution x, m^2
-  double residual_per_inlier = 0;  // r / n
-  double residual_per_weight = 0;  // r / sum(w)
-  std::uint64_t inliers = 0;       // n
-  double inlier_fraction = 0;      // NormalEquations::inlier_fraction: of the covered pixels
-  double pixel_fraction = 0;       // inliers / valid_pixels: of all valid pixels
-  double covered_fraction = 0;     // NormalEquations::covered_fraction
-  double weight_sum = 0;           // sum(w)
-  double condition = 0;            // kappa = sigma_max / sigma_min of AtA (inf when singular)
-  int iterations = 0;              // Gauss-Newton steps run, all levels
-  int coarse_iterations = 0;       // of those, the steps run below full resolution (levels 1..)
-  bool converged = false;          // the finest level's update fell below the thresholds
+  double residual = 0;                 // r = sum w (a.x - b)^2 at the solution x, m^2
+  double residual_per_inlier = 0;      // r / n
+  double residual_per_weight = 0;      // r / sum(w)
+  std::uint64_t inliers = 0;           // n
+  double inlier_fraction = 0;          // inlier_information / valid_information (NormalEquations)
+  double pixel_fraction = 0;           // inliers / valid_pixels
+  double covered_fraction = 0;         // NormalEquations::covered_fraction
+  double covered_inlier_fraction = 0;  // NormalEquations::covered_inlier_fraction
+  double weight_sum = 0;               // sum(w)
+  double condition = 0;                // kappa = sigma_max / sigma_min of AtA (inf when singular)
+  int iterations = 0;                  // Gauss-Newton steps run, all levels
+  int coarse_iterations = 0;           // of those, the steps run below full resolution (levels 1..)
+  bool converged = false;              // the finest level's update fell below the thresholds
   /// Directions of the last step updated by ICP: 6 unless degeneracy-aware solving left some at
   /// the initial pose.
   int constrained_directions = 6;

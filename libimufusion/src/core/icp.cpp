@@ -404,6 +404,7 @@ void record_step(IcpQuality& q, const NormalEquations& eq, const IcpStep& step) 
   q.weight_sum = eq.weight_sum;
   q.inlier_fraction = eq.inlier_fraction();
   q.covered_fraction = eq.covered_fraction();
+  q.covered_inlier_fraction = eq.covered_inlier_fraction();
   q.pixel_fraction = eq.pixel_fraction();
   q.condition = step.condition;
   q.residual = step.residual;

@@ -33,8 +33,8 @@ std::string frames_csv_header() {
   return "timestamp,status,pose_source,icp_iterations,residual,inliers,weight_sum,condition,fused,"
          "ms,"
          "icp_reliable,icp_reason,icp_directions,imu_disagreement,imu_chi2,imu_agreed,inlier_"
-         "fraction,pixel_fraction,covered_fraction,relocalized,recovery_restarted,imu_rotation,"
-         "imu_coverage,gyro_"
+         "fraction,pixel_fraction,covered_fraction,covered_inlier_fraction,relocalized,recovery_"
+         "restarted,imu_rotation,imu_coverage,gyro_"
          "bias_x,gyro_bias_y,gyro_bias_z,"
          "R_camera_imu_estimated,R_camera_imu_sigma_deg,blocks,pool_full,tx,ty,tz,qx,qy,qz,qw";
 }
@@ -58,8 +58,9 @@ std::string frames_csv_row(const FrameResult& f, std::uint32_t allocated_blocks)
                          (f.icp.quality.agreed_with_seed ? "1" : "0") + "," +
                          format("%.3f", f.icp.quality.inlier_fraction) + "," +
                          format("%.3f", f.icp.quality.pixel_fraction) + "," +
-                         format("%.3f", f.icp.quality.covered_fraction)
-                   : std::string(",,,,,,,,");
+                         format("%.3f", f.icp.quality.covered_fraction) + "," +
+                         format("%.3f", f.icp.quality.covered_inlier_fraction)
+                   : std::string(",,,,,,,,,");
   row += std::string(",") + (f.relocalized ? "1" : "0") + "," + (f.recovery_restarted ? "1" : "0");
   row += std::string(",") + (f.imu.rotation_from_imu ? "1" : "0") + "," +
          format("%.3f", f.imu.covered_fraction);
