@@ -293,6 +293,41 @@ class TurnedRoomModel : public ModelAligner {
   HostVolume volume_;
 };
 
+// The same room, where once per search the first candidate ICP does not place is placed 0.6 m
+// from the true pose instead, with the quality `alias` gives it.
+class AliasedRoomModel : public TurnedRoomModel {
+ public:
+  struct Alias {
+    bool reliable = true;
+    double fraction = 0.9;  // the inlier and pixel fractions
+    double condition = 100;
+    double residual_per_weight = 1e-6;  // m^2
+  };
+  explicit AliasedRoomModel(const Alias& alias) : alias_(alias) {}
+
+  Result<Placement> place(const DepthView& depth, const Eigen::Isometry3d& seed,
+                          FrameTimings& timings) override {
+    auto p = TurnedRoomModel::place(depth, seed, timings);
+    if (p && !p->icp.reliable() && !alias_placed_) {
+      alias_placed_ = true;
+      p->T_world_camera.translation() = truth.translation() + Eigen::Vector3d(0.6, 0, 0);
+      if (alias_.reliable) p->icp.verdict = IcpVerdict::kReliable;
+      p->icp.quality.inlier_fraction = p->icp.quality.pixel_fraction = alias_.fraction;
+      p->icp.quality.condition = alias_.condition;
+      p->icp.quality.residual_per_weight = alias_.residual_per_weight;
+    }
+    return p;
+  }
+  Result<std::vector<Eigen::Vector3d>> frame_points(int level) override {
+    alias_placed_ = false;  // each search meets the alias once
+    return TurnedRoomModel::frame_points(level);
+  }
+
+ private:
+  Alias alias_;
+  bool alias_placed_ = false;
+};
+
 // An upright camera (y down, z up in the world) at `position`, looking `yaw_deg` from +x.
 Eigen::Isometry3d upright_camera(const Eigen::Vector3d& position, double yaw_deg) {
   const double yaw = yaw_deg * test::kDeg;
@@ -385,27 +420,7 @@ TEST(RelocalizationWithoutGyro, TheConfirmationAllowsForWhatTheCameraMovesBetwee
 TEST(RelocalizationWithoutGyro, AFitElsewhereRejectsTheBestOne) {
   // ICP also settles, reliably, at a place 0.6 m away (a like-looking corner): nothing is taken,
   // however often the frame searches.
-  class TwoCorners : public TurnedRoomModel {
-   public:
-    Result<Placement> place(const DepthView& depth, const Eigen::Isometry3d& seed,
-                            FrameTimings& timings) override {
-      auto p = TurnedRoomModel::place(depth, seed, timings);
-      if (p && !p->icp.reliable() && !alias_placed_) {
-        alias_placed_ = true;
-        p->T_world_camera.translation() = truth.translation() + Eigen::Vector3d(0.6, 0, 0);
-        p->icp.verdict = IcpVerdict::kReliable;
-        p->icp.quality.inlier_fraction = p->icp.quality.pixel_fraction = 0.9;
-      }
-      return p;
-    }
-    Result<std::vector<Eigen::Vector3d>> frame_points(int level) override {
-      alias_placed_ = false;  // each search meets the alias once
-      return TurnedRoomModel::frame_points(level);
-    }
-
-   private:
-    bool alias_placed_ = false;
-  } model;
+  AliasedRoomModel model({});
   const Eigen::Isometry3d lost_at = upright_camera(Eigen::Vector3d(0.8, 0.6, 0.6), 0);
   model.truth = upright_camera(Eigen::Vector3d(1.2, 0.9, 0.6), 140);
   ReconstructorConfig config;
@@ -419,28 +434,8 @@ TEST(RelocalizationWithoutGyro, AFitElsewhereThatExplainsTheFrameWorseRejectsNot
   // The place 0.6 m away fits but for the condition number, its residual per weight 30 times
   // the true place's (a wall the view shares, its other points far off): the true place is
   // the only fit, and the next search confirms it.
-  class WallElsewhere : public TurnedRoomModel {
-   public:
-    Result<Placement> place(const DepthView& depth, const Eigen::Isometry3d& seed,
-                            FrameTimings& timings) override {
-      auto p = TurnedRoomModel::place(depth, seed, timings);
-      if (p && !p->icp.reliable() && !alias_placed_) {
-        alias_placed_ = true;
-        p->T_world_camera.translation() = truth.translation() + Eigen::Vector3d(0.6, 0, 0);
-        p->icp.quality.inlier_fraction = p->icp.quality.pixel_fraction = 0.7;
-        p->icp.quality.condition = 3000;
-        p->icp.quality.residual_per_weight = 30e-6;
-      }
-      return p;
-    }
-    Result<std::vector<Eigen::Vector3d>> frame_points(int level) override {
-      alias_placed_ = false;  // each search meets the alias once
-      return TurnedRoomModel::frame_points(level);
-    }
-
-   private:
-    bool alias_placed_ = false;
-  } model;
+  AliasedRoomModel model(
+      {.reliable = false, .fraction = 0.7, .condition = 3000, .residual_per_weight = 30e-6});
   const Eigen::Isometry3d lost_at = upright_camera(Eigen::Vector3d(0.8, 0.6, 0.6), 0);
   model.truth = upright_camera(Eigen::Vector3d(1.2, 0.9, 0.6), 140);
   ReconstructorConfig config;
