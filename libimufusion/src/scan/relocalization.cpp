@@ -239,8 +239,9 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
             f.residual_per_weight <=
                 config_.rival_residual_ratio * best->icp.quality.residual_per_weight);
   };
-  const auto near = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-    return (a - b).norm() <= apart;
+  // Within two cells, and `moved` (m) beyond them.
+  const auto near = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b, double moved = 0) {
+    return (a - b).norm() <= apart + moved;
   };
   // Where the best fit puts the frame relative to its estimate (world).
   const Eigen::Vector3d correction =
@@ -254,10 +255,9 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
     // camera moves between the two frames (inertial.max_speed). An only fit that the next
     // search does not confirm has the lost frame after it search again.
     const bool unique = best && std::none_of(fits.begin(), fits.end(), rival);
-    const bool confirmed =
-        unique && unconfirmed_correction_ &&
-        (correction - *unconfirmed_correction_).norm() <=
-            apart + max_speed_ * std::max(0.0, frame.timestamp - unconfirmed_time_);
+    const bool confirmed = unique && unconfirmed_correction_ &&
+                           near(correction, *unconfirmed_correction_,
+                                max_speed_ * std::max(0.0, frame.timestamp - unconfirmed_time_));
     confirm_next_ = unique && !confirmed;
     if (unique) {
       unconfirmed_correction_ = correction;
