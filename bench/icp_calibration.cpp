@@ -19,13 +19,15 @@
 //
 // Two decisions are reported per source: the fixed thresholds (IcpReliabilityThresholds) and
 // the scanner's, which follows the frame and the scan: the residual test widened to twice the
-// frame's mean depth noise variance (IcpConfig::depth_noise), the pairing tests lowered to what
-// the source's earlier IMU-like pairs that passed paired (PairingReference, TrackingConfig).
+// frame's mean depth noise variance (IcpConfig::depth_noise) as far as the source's earlier
+// IMU-like pairs that passed show that noise (TrackingConfig::residual_ratio), the pairing tests
+// lowered to what those pairs paired (PairingReference, TrackingConfig).
 // Frame pairs are noisier than the scanner's frame-to-model alignment, so these figures bound
 // the scanner's decision from below.
 //
 //   icp_calibration [--seeds N] [--pairs N] [--size WxH] [--precision P] [--csv FILE]
-//                   [--sequence DIR]... [--sequence-pairs N]
+//                   [--sequence DIR]... [--sequence-pairs N] [--from-csv FILE]
+//                   [--residual-ratio R]   (the scanner's TrackingConfig::residual_ratio; 0: off)
 
 #include <algorithm>
 #include <array>
@@ -107,19 +109,29 @@ Score score(const std::vector<Sample>& samples, const IcpReliabilityThresholds& 
 }
 
 // The scanner's decision over one source's samples in time order: the residual test widened to
-// the frame's depth noise, the pairing tests lowered to what the source's earlier IMU-like pairs
-// that passed paired. `start` non-empty: counts the pairs from that kind of start only.
+// the frame's depth noise as far as the source's earlier IMU-like pairs that passed show it
+// (`residual_ratio`, TrackingConfig; 0: widened to the noise model), the pairing tests lowered to
+// what those pairs paired. `start` non-empty: counts the pairs from that kind of start only.
 Score score_adaptive(const std::vector<Sample>& samples, const std::string& source,
-                     const std::string& start = "") {
+                     const std::string& start = "",
+                     double residual_ratio = TrackingConfig{}.residual_ratio) {
   Score s;
-  PairingReference pairing;
+  TrackingConfig config;
+  config.residual_ratio = residual_ratio;
+  PairingReference pairing(config);
+  const IcpReliabilityThresholds fixed;
   for (const Sample& x : samples) {
     if (x.source != source) continue;
-    IcpReliabilityThresholds t = IcpReliabilityThresholds{}.widened_to_noise(x.noise_variance);
+    IcpReliabilityThresholds t = fixed.widened_to_noise(x.noise_variance);
+    t.max_residual_per_weight = pairing.residual_limit(fixed.max_residual_per_weight,
+                                                       t.max_residual_per_weight, x.noise_variance);
     pairing.apply(t.min_inlier_fraction, t.min_pixel_fraction);
     const bool reliable = judge_icp(x.q, t, nullptr);
     if (start.empty() || x.start == start) s.add(reliable, x.good);
-    if (reliable && x.start == "imu_like") pairing.add(x.q.inlier_fraction, x.q.pixel_fraction);
+    if (reliable && x.start == "imu_like") {
+      pairing.add(x.q.inlier_fraction, x.q.pixel_fraction);
+      pairing.add_residual(x.q.residual_per_weight, x.noise_variance);
+    }
   }
   return s;
 }
@@ -363,7 +375,7 @@ void print_score(const char* what, const Score& s) {
 }
 
 void report(const std::vector<Sample>& samples, std::optional<IcpReliabilityThresholds> chosen,
-            const std::vector<std::string>& sources) {
+            double residual_ratio, const std::vector<std::string>& sources) {
   auto describe = [](const char* name, const IcpReliabilityThresholds& t) {
     std::printf(
         "%-26s kappa <= %-9.4g r/sum(w) <= %-9.3g inlier fraction >= %.2f pixel fraction >= %.2f\n",
@@ -390,7 +402,9 @@ void report(const std::vector<Sample>& samples, std::optional<IcpReliabilityThre
     print_score("own generator, held-out seeds", score(samples, t, 0));
   }
   std::printf(
-      "per source (fixed: the defaults; scanner: noise-widened residual, pairing reference):\n");
+      "per source (fixed: the defaults; scanner: noise-widened residual within the residual "
+      "reference, pairing reference; noise model only: the residual widened to the noise "
+      "model alone):\n");
   for (const std::string& source : sources) {
     int n = 0, good = 0;
     for (const Sample& s : samples)
@@ -400,9 +414,13 @@ void report(const std::vector<Sample>& samples, std::optional<IcpReliabilityThre
       }
     std::printf(" %s: %d pairs, %d good\n", source.c_str(), n, good);
     print_score("fixed thresholds", score(samples, defaults, -1, source));
-    print_score("scanner's decision", score_adaptive(samples, source));
+    print_score("scanner's decision", score_adaptive(samples, source, "", residual_ratio));
+    print_score("scanner's, noise model only", score_adaptive(samples, source, "", 0));
     print_score("fixed, IMU-like starts", score(samples, defaults, -1, source, "imu_like"));
-    print_score("scanner's, IMU-like starts", score_adaptive(samples, source, "imu_like"));
+    print_score("scanner's, IMU-like starts",
+                score_adaptive(samples, source, "imu_like", residual_ratio));
+    print_score("scanner's, IMU-like, noise model only",
+                score_adaptive(samples, source, "imu_like", 0));
   }
 }
 
@@ -433,6 +451,7 @@ std::optional<std::pair<std::string, std::vector<Sample>>> measure(
 int main(int argc, char** argv) {
   int seeds = 8, pairs = 8, width = 320, height = 240, sequence_pairs = 60;
   double target_precision = 0.99;
+  double residual_ratio = TrackingConfig{}.residual_ratio;
   std::string csv, from_csv;
   std::vector<std::filesystem::path> sequences;
   for (int i = 1; i + 1 < argc; i += 2) {
@@ -443,6 +462,8 @@ int main(int argc, char** argv) {
       pairs = std::atoi(v.c_str());
     else if (a == "--precision")
       target_precision = std::atof(v.c_str());
+    else if (a == "--residual-ratio")
+      residual_ratio = std::atof(v.c_str());
     else if (a == "--csv")
       csv = v;
     else if (a == "--from-csv")
@@ -456,7 +477,8 @@ int main(int argc, char** argv) {
       std::cerr
           << "usage: icp_calibration [--seeds N] [--pairs N] [--size WxH] [--precision P] [--csv "
              "FILE]\n"
-             "                       [--sequence DIR]... [--sequence-pairs N] [--from-csv FILE]\n";
+             "                       [--sequence DIR]... [--sequence-pairs N] [--from-csv FILE]\n"
+             "                       [--residual-ratio R]\n";
       return 2;
     }
   }
@@ -495,6 +517,6 @@ int main(int argc, char** argv) {
   const auto chosen = choose_rule(samples, target_precision);
   if (!chosen)
     std::printf("no rule reaches precision %.3f on the calibration seeds\n", target_precision);
-  report(samples, chosen, sources);
+  report(samples, chosen, residual_ratio, sources);
   return 0;
 }

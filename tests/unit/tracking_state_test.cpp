@@ -242,6 +242,35 @@ TEST(PairingReference, LowersThePairingTestsToWhatAlignedFramesPair) {
   EXPECT_EQ(reference.size(), 0u);
 }
 
+TEST(PairingReference, NarrowsTheResidualTestToTheNoiseAlignedFramesShow) {
+  TrackingConfig config;
+  config.pairing_window = 3;
+  config.residual_ratio = 3;
+  PairingReference reference(config);
+  const double fixed = 4e-5, widened = 4e-4, noise = 2e-4;  // m^2
+  // Nothing seen yet: the limit widened to the noise model.
+  EXPECT_EQ(reference.residual_limit(fixed, widened, noise), widened);
+  // Aligned frames that leave a twentieth of the model's noise variance: three times that.
+  for (double r : {1.0e-5, 0.8e-5, 1.2e-5}) reference.add_residual(r, noise);
+  EXPECT_DOUBLE_EQ(reference.residual_limit(fixed, widened, 2 * noise), 3 * 0.05 * 2 * noise);
+  // Never below the fixed limit (a near, clean frame), never above the widened one.
+  EXPECT_EQ(reference.residual_limit(fixed, widened, noise / 10), fixed);
+  for (int i = 0; i < 3; ++i) reference.add_residual(2 * noise, noise);  // the window forgets
+  EXPECT_EQ(reference.residual_limit(fixed, widened, noise), widened);
+  // Frames without a residual or a noise estimate teach nothing.
+  reference.add_residual(0, noise);
+  reference.add_residual(1e-5, 0);
+  reference.add_residual(std::numeric_limits<double>::quiet_NaN(), noise);
+  EXPECT_EQ(reference.residuals(), 3u);
+  reference.reset();
+  EXPECT_EQ(reference.residuals(), 0u);
+  // Off: the widened limit whatever the frames showed.
+  config.residual_ratio = 0;
+  PairingReference off(config);
+  off.add_residual(1e-5, noise);
+  EXPECT_EQ(off.residual_limit(fixed, widened, noise), widened);
+}
+
 TEST(PredictionCalibration, ScalesThePredictionsSigmasByHowFarItIsOff) {
   TrackingConfig config;
   config.prediction_window = 3;

@@ -77,6 +77,12 @@ struct TrackingConfig {
   int pairing_window = 15;
   double pairing_ratio = 0.7;
   double pairing_floor = 0.15;
+  /// The residual test follows the noise this scan's aligned frames show: a frame's r / sum(w)
+  /// may reach `residual_ratio` times its mean depth-noise variance times the median ratio of
+  /// r / sum(w) to that variance over the same pairing_window frames, where that is below the
+  /// limit widened to the noise model, never below the fixed limit (bench/README.md, "The
+  /// residual against the scan's own"). 0: off. Default 5.
+  double residual_ratio = 5;
   /// The IMU prediction's sigmas are scaled by what this scan shows: sqrt of the median chi^2
   /// (6 dof) of ICP's move from the prediction over the last `prediction_window` frames ICP
   /// tracked on its own, over chi^2's median (5.35), never below 1 (bench/README.md). 0: off.
@@ -87,25 +93,36 @@ struct TrackingConfig {
   int constant_velocity_pairs = 2;
 };
 
-/// What aligned frames of this scan pair against the model (the medians of IcpQuality's
-/// inlier_fraction and pixel_fraction over the last TrackingConfig::pairing_window reliable
-/// frames): the depth's noise and the model's coverage set it, not the alignment.
+/// What aligned frames of this scan pair against the model and what residual they leave (the
+/// medians of IcpQuality's inlier_fraction, pixel_fraction and residual_per_weight over the
+/// frame's depth-noise variance, over the last TrackingConfig::pairing_window reliable frames):
+/// the depth's noise and the model's coverage set them, not the alignment.
 class PairingReference {
  public:
   explicit PairingReference(const TrackingConfig& config = {}) : config_(config) {}
   /// A frame ICP tracked in all six directions paired these fractions.
   void add(double inlier_fraction, double pixel_fraction);
+  /// Such a frame left r / sum(w) `residual_per_weight` (m^2) at a mean depth-noise variance
+  /// `noise_variance` (m^2, DepthNoiseModel::mean_variance); ignored unless both are positive.
+  void add_residual(double residual_per_weight, double noise_variance);
   /// The thresholds `base` lowered to what this scan's aligned frames pair (see TrackingConfig);
   /// `base` itself before any frame was added.
   void apply(double& min_inlier_fraction, double& min_pixel_fraction) const;
+  /// The residual test's limit (r / sum(w), m^2) for a frame of mean depth-noise variance
+  /// `noise_variance` (m^2): TrackingConfig::residual_ratio times it times the median ratio
+  /// the scan's aligned frames showed, within [`fixed`, `widened`] (the fixed limit and the
+  /// limit widened to the noise model); `widened` before any residual was added.
+  double residual_limit(double fixed, double widened, double noise_variance) const;
   void reset();
   std::size_t size() const { return inlier_.size(); }
+  std::size_t residuals() const { return residual_.size(); }
   /// Writes or reads the changing state (not the configuration) for a saved scan.
   void describe(StateArchive& archive);
 
  private:
   TrackingConfig config_;
   std::deque<double> inlier_, pixel_;
+  std::deque<double> residual_;  // r / sum(w) over the frame's depth-noise variance
 };
 
 /// How far the IMU's prediction is off on this scan relative to its own sigmas

@@ -77,6 +77,7 @@ Status ReconstructorConfig::validate() const {
                std::to_string(smoothing.retrack_frames));
   const std::pair<const char*, double> non_negative[] = {
       {"imu.max_partial_seconds", imu.max_partial_seconds},
+      {"tracking.residual_ratio", tracking.residual_ratio},
       {"imu.seed_reach_pixels", imu.seed_reach_pixels},
       {"relocalization.drift_acceleration", r.drift_acceleration},
       {"relocalization.near_fit_condition_factor", r.near_fit_condition_factor},

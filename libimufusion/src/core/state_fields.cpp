@@ -41,7 +41,7 @@ void describe(StateArchive& a, VolumeConfig& x) {
 void describe(StateArchive& a, TrackingConfig& x) {
   a(x.recovery_frames, x.relocalized_recovery_frames, x.pairing_window, x.pairing_ratio,
     x.pairing_floor, x.prediction_window, x.constant_velocity_pairs, x.restart_lost_frames,
-    x.restart_model_frames);
+    x.restart_model_frames, x.residual_ratio);
 }
 
 void describe(StateArchive& a, InertialConfig& x) {

@@ -55,6 +55,21 @@ void PairingReference::add(double inlier_fraction, double pixel_fraction) {
   }
 }
 
+void PairingReference::add_residual(double residual_per_weight, double noise_variance) {
+  if (config_.pairing_window <= 0 || config_.residual_ratio <= 0) return;
+  if (!(residual_per_weight > 0) || !(noise_variance > 0)) return;
+  const double ratio = residual_per_weight / noise_variance;
+  if (!std::isfinite(ratio)) return;
+  residual_.push_back(ratio);
+  while (residual_.size() > static_cast<std::size_t>(config_.pairing_window)) residual_.pop_front();
+}
+
+double PairingReference::residual_limit(double fixed, double widened, double noise_variance) const {
+  if (residual_.empty() || !(noise_variance > 0)) return widened;
+  const double shown = config_.residual_ratio * median(residual_) * noise_variance;
+  return std::clamp(shown, fixed, std::max(fixed, widened));
+}
+
 void PairingReference::apply(double& min_inlier_fraction, double& min_pixel_fraction) const {
   const double floor = config_.pairing_floor;
   const auto lowered = [&](double base, const std::deque<double>& seen) {
@@ -68,6 +83,7 @@ void PairingReference::apply(double& min_inlier_fraction, double& min_pixel_frac
 void PairingReference::reset() {
   inlier_.clear();
   pixel_.clear();
+  residual_.clear();
 }
 
 void PredictionCalibration::add(double chi2) {
@@ -151,7 +167,7 @@ void TrackingStateMachine::reset() {
   good_frames_ = 0;
 }
 
-void PairingReference::describe(StateArchive& archive) { archive(inlier_, pixel_); }
+void PairingReference::describe(StateArchive& archive) { archive(inlier_, pixel_, residual_); }
 
 void PredictionCalibration::describe(StateArchive& archive) { archive(chi2_); }
 

@@ -296,20 +296,22 @@ Result<LossRecovery::Frame> Reconstructor::Impl::track_frame(double timestamp,
                          ? T_world_icp
                          : f.T_world_seed;
   f.fixed.noalias() = R_world_reference * icp->fixed_translation * R_world_reference.transpose();
-  note_decision(f.decision, *icp, f.was_lost, previous, r);
+  note_decision(f.decision, *icp, f.was_lost, previous, noise_variance(depth), r);
   return f;
 }
 
-// What a tracked frame's decision teaches the scan: the pairing reference and the prediction's
-// calibration, the seed gate, and the motion the navigator observes.
+// What a tracked frame's decision teaches the scan: the pairing reference (the frame's mean
+// depth-noise variance `noise`, m^2) and the prediction's calibration, the seed gate, and the
+// motion the navigator observes.
 void Reconstructor::Impl::note_decision(const TrackingDecision& decision, const IcpResult& icp,
-                                        bool was_lost, const StampedPose& previous,
+                                        bool was_lost, const StampedPose& previous, double noise,
                                         FrameResult& r) {
   // A frame accepted for its agreement with the IMU paired less than the reference asks for; a
   // frame aligned to the first frame's own maps paired more than a model raycast offers.
   if (decision.status == TrackingStatus::kTracking && decision.source == PoseSource::kIcp &&
       !icp.quality.agreed_with_seed && !reference_is_frame) {
     pairing.add(icp.quality.inlier_fraction, icp.quality.pixel_fraction);
+    pairing.add_residual(icp.quality.residual_per_weight, noise);
     // Only against a whole prediction: the first frames' translation sigma is a bound.
     if (icp.quality.seed_chi2 > 0 && icp.quality.seed_gated_directions == 0 &&
         r.imu.translation_predicted)
@@ -368,7 +370,7 @@ Result<FrameResult> Reconstructor::track_and_fuse(double timestamp, const DepthV
   const auto t0 = Clock::now();
   IMUFUSION_RETURN_IF_ERROR(m.check_frame(timestamp, depth, color));
   IMUFUSION_RETURN_IF_ERROR(m.add_imu(imu));
-  m.median_depth_of = nullptr;  // a new frame, perhaps in the last one's buffer
+  m.median_depth_of = m.noise_variance_of = nullptr;  // a new frame, perhaps in the last's buffer
   FrameResult r;
   r.index = m.trajectory.size();
   r.timestamp = timestamp;

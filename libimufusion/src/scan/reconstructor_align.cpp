@@ -51,12 +51,24 @@ std::size_t Reconstructor::Impl::valid_depth_pixels(const DepthView& depth) cons
   return n;
 }
 
-// The reliability thresholds for this frame: the residual test widened to its depth noise,
-// the pairing tests lowered to what this scan's aligned frames pair.
+// The frame's mean depth-noise variance (m^2, DepthNoiseModel::mean_variance), kept for the
+// depth image it was computed for.
+double Reconstructor::Impl::noise_variance(const DepthView& depth) const {
+  if (noise_variance_of != nullptr && noise_variance_of == depth.data) return noise_variance_value;
+  noise_variance_value = config.icp.depth_noise.mean_variance(depth, config.preprocess.min_depth,
+                                                              config.preprocess.max_depth);
+  noise_variance_of = depth.data;
+  return noise_variance_value;
+}
+
+// The reliability thresholds for this frame: the residual test widened to its depth noise as far
+// as this scan's aligned frames show that noise, the pairing tests lowered to what they pair.
 IcpReliabilityThresholds Reconstructor::Impl::reliability(const DepthView& depth) const {
-  IcpReliabilityThresholds t =
-      config.icp.reliability.widened_to_noise(config.icp.depth_noise.mean_variance(
-          depth, config.preprocess.min_depth, config.preprocess.max_depth));
+  const double noise = noise_variance(depth);
+  const IcpReliabilityThresholds& fixed = config.icp.reliability;
+  IcpReliabilityThresholds t = fixed.widened_to_noise(noise);
+  t.max_residual_per_weight =
+      pairing.residual_limit(fixed.max_residual_per_weight, t.max_residual_per_weight, noise);
   pairing.apply(t.min_inlier_fraction, t.min_pixel_fraction);
   return t;
 }

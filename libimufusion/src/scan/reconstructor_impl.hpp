@@ -86,6 +86,9 @@ struct Reconstructor::Impl final : ModelAligner {
   // The incoming frame's median depth (m), once median_depth computed it for that depth image.
   const void* median_depth_of = nullptr;
   double median_depth_value = 0;
+  // The same for its mean depth-noise variance (m^2), which reliability() asks for each alignment.
+  mutable const void* noise_variance_of = nullptr;
+  mutable double noise_variance_value = 0;
   // The last tracked frame's seed gate moved a direction back to the prediction: the next
   // frame is gated at seed_gate_hold_sigmas.
   bool seed_gate_holding = false;
@@ -117,7 +120,7 @@ struct Reconstructor::Impl final : ModelAligner {
   Status clear_model();
   Result<LossRecovery::Frame> track_frame(double timestamp, const DepthView& depth, FrameResult& r);
   void note_decision(const TrackingDecision& decision, const IcpResult& icp, bool was_lost,
-                     const StampedPose& previous, FrameResult& r);
+                     const StampedPose& previous, double noise, FrameResult& r);
   Eigen::Isometry3d constant_velocity_motion(double interval) const;
   void note_motion(bool tracked, double timestamp, const Eigen::Isometry3d& T_world_camera);
   Status fuse_and_record(const TrackingDecision& decision, double timestamp, const DepthView& depth,
@@ -128,6 +131,7 @@ struct Reconstructor::Impl final : ModelAligner {
   Status reference_from_first_frame(FrameTimings& timings);
   std::size_t valid_depth_pixels(const DepthView& depth) const;
   double median_depth(const DepthView& depth);
+  double noise_variance(const DepthView& depth) const;
   double tracking_image_motion(double rotation, double translation, double z) const;
   int seed_start_level(const MotionPrediction& prediction, const DepthView& depth);
   Result<IcpResult> align(const DepthView& depth, const Eigen::Isometry3d& T_world_seed,
