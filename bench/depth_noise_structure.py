@@ -17,37 +17,22 @@ Medians over the frames. Needs python3-numpy and python3-pil.
 """
 
 import argparse
-import os
 
 import numpy as np
-from PIL import Image
 
-NOISE_A, NOISE_B, NOISE_Z0 = 0.0012, 0.0019, 0.4  # DepthNoiseModel's defaults (m)
-MIN_DEPTH, MAX_DEPTH = 0.3, 5.0  # PreprocessConfig's defaults (m)
-
-
-def depth_files(seq):
-    scale = 5000.0
-    info = os.path.join(seq, "info.txt")
-    if os.path.exists(info):
-        for line in open(info):
-            f = line.split()
-            if len(f) >= 2 and f[0] == "depth_scale":
-                scale = float(f[1])
-    names = [l.split()[1] for l in open(os.path.join(seq, "depth.txt"))
-             if l.strip() and not l.startswith("#")]
-    return [os.path.join(seq, n) for n in names], scale
+from sequence_depth import MAX_DEPTH, MIN_DEPTH, depth_frames, model_sigma, read_depth
 
 
 def frame_figures(png, scale):
-    z = np.asarray(Image.open(png), dtype=np.float64) / scale
+    """(white / model, flat share) of one depth image; None without valid depth."""
+    z = read_depth(png, scale)
     ok = (z >= MIN_DEPTH) & (z <= MAX_DEPTH)
     d2 = z[:, 2:] - 2 * z[:, 1:-1] + z[:, :-2]
     valid = ok[:, 2:] & ok[:, 1:-1] & ok[:, :-2]
     if not valid.any():
         return None
     zc, e = z[:, 1:-1][valid], d2[valid]
-    u = e / (NOISE_A + NOISE_B * (zc - NOISE_Z0) ** 2)
+    u = e / model_sigma(zc)
     mad = 1.4826 * np.median(np.abs(u - np.median(u)))
     return mad * mad / 6.0, float(np.mean(e == 0))
 
@@ -59,7 +44,8 @@ def main():
     args = ap.parse_args()
     print("%-48s %13s %10s" % ("sequence", "white / model", "flat share"))
     for seq in args.sequences:
-        files, scale = depth_files(seq)
+        frames, scale = depth_frames(seq)
+        files = [png for _, png in frames]
         step = max(1, len(files) // args.frames)
         figures = [f for f in (frame_figures(p, scale) for p in files[::step][:args.frames]) if f]
         if not figures:

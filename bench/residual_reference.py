@@ -20,42 +20,21 @@ import csv
 import os
 
 import numpy as np
-from PIL import Image
 
-NOISE_A, NOISE_B, NOISE_Z0 = 0.0012, 0.0019, 0.4  # DepthNoiseModel's defaults (m)
-MIN_DEPTH, MAX_DEPTH = 0.3, 5.0  # PreprocessConfig's defaults (m)
-
-
-def depth_index(seq):
-    """{timestamp rounded to 0.1 ms: PNG path} and the depth scale (units per metre)."""
-    scale = 5000.0
-    info = os.path.join(seq, "info.txt")
-    if os.path.exists(info):
-        for line in open(info):
-            f = line.split()
-            if len(f) >= 2 and f[0] == "depth_scale":
-                scale = float(f[1])
-    index = {}
-    for line in open(os.path.join(seq, "depth.txt")):
-        if line.startswith("#") or not line.strip():
-            continue
-        t, name = line.split()[:2]
-        index[round(float(t), 4)] = os.path.join(seq, name)
-    return index, scale
+from sequence_depth import MAX_DEPTH, MIN_DEPTH, depth_frames, model_sigma, read_depth
 
 
 def noise_variance(png, scale):
-    z = np.asarray(Image.open(png), dtype=np.float64) / scale
+    """The frame's mean sigma(z)^2 (m^2) over its depths in [MIN_DEPTH, MAX_DEPTH]."""
+    z = read_depth(png, scale)
     z = z[(z >= MIN_DEPTH) & (z <= MAX_DEPTH)]
-    if z.size == 0:
-        return 0.0
-    s = NOISE_A + NOISE_B * (z - NOISE_Z0) ** 2
-    return float(np.mean(s * s))
+    return float(np.mean(model_sigma(z) ** 2)) if z.size else 0.0
 
 
 def ratios(scan, seq, window, warmup):
     """(q, ratio to the median of the frames before) of each tracked frame after the warm-up."""
-    index, scale = depth_index(seq)
+    frames, scale = depth_frames(seq)
+    index = {round(t, 4): png for t, png in frames}
     seen, out = [], []
     for row in csv.DictReader(open(os.path.join(scan, "frames.csv"))):
         if row["status"] != "tracking" or row["pose_source"] != "icp":
