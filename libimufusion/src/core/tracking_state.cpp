@@ -43,16 +43,18 @@ double median(std::deque<double> values) {
   return *mid;
 }
 
+// Appends `value`, keeping the newest `window` (> 0) values.
+void keep_last(std::deque<double>& values, double value, int window) {
+  values.push_back(value);
+  while (values.size() > static_cast<std::size_t>(window)) values.pop_front();
+}
+
 }  // namespace
 
 void PairingReference::add(double inlier_fraction, double pixel_fraction) {
   if (config_.pairing_window <= 0) return;
-  inlier_.push_back(inlier_fraction);
-  pixel_.push_back(pixel_fraction);
-  while (inlier_.size() > static_cast<std::size_t>(config_.pairing_window)) {
-    inlier_.pop_front();
-    pixel_.pop_front();
-  }
+  keep_last(inlier_, inlier_fraction, config_.pairing_window);
+  keep_last(pixel_, pixel_fraction, config_.pairing_window);
 }
 
 void PairingReference::add_residual(double residual_per_weight, double noise_variance) {
@@ -60,8 +62,7 @@ void PairingReference::add_residual(double residual_per_weight, double noise_var
   if (!(residual_per_weight > 0) || !(noise_variance > 0)) return;
   const double ratio = residual_per_weight / noise_variance;
   if (!std::isfinite(ratio)) return;
-  residual_.push_back(ratio);
-  while (residual_.size() > static_cast<std::size_t>(config_.pairing_window)) residual_.pop_front();
+  keep_last(residual_, ratio, config_.pairing_window);
 }
 
 double PairingReference::residual_limit(double fixed, double widened, double noise_variance) const {
@@ -89,8 +90,7 @@ void PairingReference::reset() {
 void PredictionCalibration::add(double chi2) {
   if (config_.prediction_window <= 0 || !(chi2 >= 0) || !std::isfinite(chi2)) return;
   const double unit = chi2 * scale() * scale();
-  chi2_.push_back(unit);
-  while (chi2_.size() > static_cast<std::size_t>(config_.prediction_window)) chi2_.pop_front();
+  keep_last(chi2_, unit, config_.prediction_window);
 }
 
 double PredictionCalibration::scale() const {
