@@ -27,9 +27,11 @@ inline Result<std::filesystem::path> ensure_demo_sequence(const std::filesystem:
     auto written_sensor = info.find("sensor");  // absent: the Kinect model
     const std::string sensor_name =
         written_sensor == info.end() ? "kinect" : written_sensor->second;
+    // A demo written before the disparity noise model has no depth_noise_model line.
+    const bool current_noise = info.count("depth_noise_model") != 0;
     if (source != info.end() && source->second.find("imufusion-synth") != std::string::npos &&
         existing->frame_count() == static_cast<std::size_t>(frames) &&
-        sensor_name == synth::to_string(kind)) {
+        sensor_name == synth::to_string(kind) && current_noise) {
       return dir;
     }
   }

@@ -16,7 +16,7 @@ using imufusion::synth::SynthConfig;
 constexpr const char* kUsage =
     "usage: imufusion-synth --scene room|wall|fast --out DIR [--seed N] [--frames N]\n"
     "                       [--size WxH] [--fps F] [--sensor kinect|phone-tof] [--no-color]\n"
-    "                       [--no-noise] [--overwrite]\n"
+    "                       [--no-noise] [--white-noise] [--overwrite]\n"
     "  --scene      room: furnished room; wall: ~2 s facing a bare wall at 1 m while moving;\n"
     "               fast: bursts of ~90 deg/s rotation\n"
     "  --out        output directory (must be empty or absent unless --overwrite)\n"
@@ -29,7 +29,9 @@ constexpr const char* kUsage =
     "               or phone-tof (a phone time-of-flight module: 240x180, 0.2-4 m, noise ~1%\n"
     "               of depth, flying pixels at depth edges, millimetre steps)\n"
     "  --no-color   write no rgb/ images\n"
-    "  --no-noise   no depth noise, no IMU noise or bias\n";
+    "  --no-noise   no depth noise, no IMU noise or bias\n"
+    "  --white-noise  kinect: independent depth noise per pixel, 0.2 mm steps (default: the\n"
+    "               error of a disparity shared over a 9 px window, in 1/8 px steps)\n";
 
 int usage_error(const std::string& message) {
   std::fprintf(stderr, "imufusion-synth: %s\n%s", message.c_str(), kUsage);
@@ -105,6 +107,8 @@ int main(int argc, char** argv) {
     } else if (arg == "--no-noise") {
       config.depth_noise = false;
       config.imu_noise = false;
+    } else if (arg == "--white-noise") {
+      config.white_depth_noise = true;
     } else if (arg == "--overwrite") {
       config.overwrite = true;
     } else if (i + 1 >= argc) {

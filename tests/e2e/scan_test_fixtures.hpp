@@ -22,12 +22,16 @@ inline nlohmann::json read_json(const std::filesystem::path& path) {
   return nlohmann::json::parse(read_text(path));
 }
 
-/// A 160x120 synthetic sequence of `scene` written to root/name.
+/// A 160x120 synthetic sequence of `scene` written to root/name; `white_noise`: the Kinect's
+/// noise independent per pixel (SynthConfig::white_depth_noise).
 inline std::filesystem::path synthesize_small(const std::filesystem::path& root,
                                               const std::string& name, synth::SceneKind scene,
-                                              int frames, std::uint64_t seed) {
+                                              int frames, std::uint64_t seed,
+                                              bool white_noise = false) {
   const std::filesystem::path dir = root / name;
-  auto summary = synth::synthesize(test::small_synth_config(scene, seed, frames), dir);
+  synth::SynthConfig config = test::small_synth_config(scene, seed, frames);
+  config.white_depth_noise = white_noise;
+  auto summary = synth::synthesize(config, dir);
   EXPECT_TRUE(summary.ok()) << summary.error().describe();
   return dir;
 }

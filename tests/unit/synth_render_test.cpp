@@ -165,6 +165,79 @@ TEST(SynthRender, NoiseStdFollowsKinectModel) {
   EXPECT_NEAR(depth_noise_sigma(2.4), 0.0012 + 0.0019 * 4.0, 1e-12);
 }
 
+TEST(SynthRender, KinectDepthLiesOnDisparitySteps) {
+  const Intrinsics k = default_intrinsics(160, 120);
+  const SensorModel model;
+  const DepthImage raw = render_depth(plane_scene(Eigen::Vector3d::UnitZ(), 2.0),
+                                      Eigen::Isometry3d::Identity(), k, model, 5);
+  EXPECT_NEAR(disparity_depth_step(2.0, model), 4.0 * 0.125 / 43.5, 1e-12);
+  int distinct_steps = 0;
+  double previous = 0.0;
+  for (const std::uint16_t value : raw.data) {
+    ASSERT_NE(value, 0);
+    const double z = value / 5000.0;
+    const double steps = std::round(model.baseline_focal / z / model.disparity_step);
+    const double z_step = model.baseline_focal / (steps * model.disparity_step);
+    // Written in 1/5000 m: within half of that of a disparity step's depth.
+    ASSERT_LE(std::abs(z - z_step), 0.5 / 5000.0 + 1e-9) << value;
+    if (steps != previous) ++distinct_steps, previous = steps;
+  }
+  EXPECT_GT(distinct_steps, 10);  // the noise moves pixels across steps
+}
+
+/// Correlation of horizontal neighbours' depth errors and the share of pixel triples along rows
+/// with a zero second difference, over a fronto-parallel plane at z.
+std::pair<double, double> neighbour_structure(const DepthImage& raw, double z) {
+  double sxy = 0, sxx = 0, mean = 0;
+  int n = 0, flat = 0, triples = 0;
+  for (const std::uint16_t value : raw.data) mean += value / 5000.0 - z;
+  mean /= static_cast<double>(raw.data.size());
+  for (int v = 0; v < raw.height; ++v) {
+    for (int u = 0; u + 1 < raw.width; ++u) {
+      const double a = raw.at(u, v) / 5000.0 - z - mean, b = raw.at(u + 1, v) / 5000.0 - z - mean;
+      sxy += a * b;
+      sxx += a * a;
+      ++n;
+      if (u + 2 < raw.width) {
+        flat += raw.at(u, v) - 2 * raw.at(u + 1, v) + raw.at(u + 2, v) == 0;
+        ++triples;
+      }
+    }
+  }
+  return {sxy / sxx, static_cast<double>(flat) / triples};
+}
+
+TEST(SynthRender, KinectNoiseIsSharedOverTheWindow) {
+  const Intrinsics k = default_intrinsics(640, 480);
+  const Scene scene = plane_scene(Eigen::Vector3d::UnitZ(), 1.0);
+  SensorModel model;
+  const auto [correlation, flat] =
+      neighbour_structure(render_depth(scene, Eigen::Isometry3d::Identity(), k, model, 3), 1.0);
+  // A 9 px box shares 8/9 of neighbours' noise; the 2.9 mm steps at 1 m keep most of it.
+  EXPECT_GT(correlation, 0.6);
+  EXPECT_GT(flat, 0.3);
+  model.noise_window = 1;
+  model.disparity_step = 0.0;
+  const auto [white_correlation, white_flat] =
+      neighbour_structure(render_depth(scene, Eigen::Isometry3d::Identity(), k, model, 3), 1.0);
+  EXPECT_LT(std::abs(white_correlation), 0.02);
+  EXPECT_LT(white_flat, 0.1);
+}
+
+TEST(SynthRender, WhiteKinectNoiseFollowsTheModelPerPixel) {
+  const Intrinsics k = default_intrinsics(160, 120);
+  SensorModel model;
+  model.noise_window = 1;
+  model.disparity_step = 0.0;
+  const DepthImage raw = render_depth(plane_scene(Eigen::Vector3d::UnitZ(), 2.0),
+                                      Eigen::Isometry3d::Identity(), k, model, 11);
+  double sum2 = 0;
+  for (const std::uint16_t value : raw.data)
+    sum2 += (value / 5000.0 - 2.0) * (value / 5000.0 - 2.0);
+  const double sigma = depth_noise_sigma(2.0);
+  EXPECT_NEAR(std::sqrt(sum2 / static_cast<double>(raw.data.size())), sigma, 0.03 * sigma);
+}
+
 TEST(SynthRender, RangeLimitsGiveZero) {
   const Intrinsics k = default_intrinsics(40, 30);
   SensorModel model;

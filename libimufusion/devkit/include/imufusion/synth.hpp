@@ -112,8 +112,9 @@ Intrinsics default_intrinsics(int width = 640, int height = 480);
 
 /// The depth sensors the generator models.
 enum class SensorKind {
-  /// Kinect v1 structured light: disparity-quantized depth (1/5000 m steps), Kinect v1 noise
-  /// (depth_noise_sigma), no depth next to depth edges, 0.4-4.5 m.
+  /// Kinect v1 structured light: depth from a disparity quantized to 1/8 px, its error shared
+  /// over the block-matching window, Kinect v1 noise (depth_noise_sigma), no depth next to depth
+  /// edges, 0.4-4.5 m.
   kKinect,
   /// A phone time-of-flight module of 2019-2021 phones (240x180 at 30 Hz, Sony IMX316 class,
   /// Android DEPTH16: millimetre steps, 13 bits): noise as tof_noise_sigma, flying pixels at
@@ -129,8 +130,9 @@ std::optional<SensorKind> parse_sensor_kind(std::string_view name);
 /// The depth sensor model applied by render_depth(); sensor_model() gives each kind's values.
 struct SensorModel {
   SensorKind kind = SensorKind::kKinect;  // which noise and depth-edge model applies
-  /// Axial Gaussian noise: Kinect sigma(z) = 0.0012 + 0.0019 (z - 0.4)^2 m; phone ToF
-  /// tof_noise_sigma(z, reflectance, cos incidence).
+  /// Axial noise: Kinect sigma(z) = 0.0012 + 0.0019 (z - 0.4)^2 m in all (disparity steps
+  /// included); phone ToF tof_noise_sigma(z, reflectance, cos incidence). false: the exact depth
+  /// in 1 / depth_scale steps, no disparity steps.
   bool depth_noise = true;
   /// Kinect: no depth next to depth discontinuities (one pixel each side). Phone ToF: such a
   /// pixel is a flying pixel (kFlyingPixelShare) or has no depth.
@@ -138,6 +140,14 @@ struct SensorModel {
   double max_incidence_deg = 78.0;          // no depth where the surface is seen more obliquely
   double min_depth = 0.4, max_depth = 4.5;  // metres along the optical axis, 0 outside
   double depth_scale = 5000.0;              // raw units per metre (quantization 1/5000 m)
+  /// Kinect: disparity d = baseline_focal / z, px at the IR camera's 640x480 (7.5 cm x 580 px).
+  double baseline_focal = 43.5;
+  /// Kinect: disparity steps, px (the sensor's 1/8 px: 2.9 mm of depth at 1 m, 11.5 at 2 m);
+  /// 0: depth steps of 1 / depth_scale only.
+  double disparity_step = 0.125;
+  /// Kinect: the noise is white noise averaged over this window, px at 640x480 (scaled to the
+  /// image; block matching shares a pixel's error with its neighbours); 1: independent pixels.
+  int noise_window = 9;
   /// 1/m^2: no depth where reflectance * cos(incidence) / z^2, the returned amplitude relative
   /// to a white surface at 1 m, is below this (a ToF camera's low-confidence pixels). 0: off.
   double min_amplitude = 0.0;
@@ -155,8 +165,13 @@ struct SensorFormat {
 };
 SensorFormat sensor_format(SensorKind kind);
 
-/// Axial depth noise standard deviation of a Kinect v1 (Nguyen et al. 2012), metres.
+/// Axial depth noise standard deviation of a Kinect v1 (Nguyen et al. 2012), metres: the total
+/// error, disparity steps included.
 double depth_noise_sigma(double z);
+
+/// The depth step (metres) at depth z of a disparity quantized to `model.disparity_step`:
+/// z^2 disparity_step / baseline_focal; 0 when disparity_step is 0.
+double disparity_depth_step(double z, const SensorModel& model);
 
 /// Axial depth noise of the phone ToF model, metres: 1 % of z on a surface of reflectance 0.5
 /// (mean albedo) seen head-on, the error Sony states for its DepthSense IMX316/IMX516 sensors;
@@ -296,7 +311,10 @@ struct SynthConfig {
   double fps = 30.0;
   double imu_rate = 200.0;
   bool color = true;
-  bool depth_noise = true;  // Gaussian depth noise (range limits, dropouts, quantization stay)
+  bool depth_noise = true;  // depth noise (range limits, dropouts, 1/depth_scale steps stay)
+  /// Kinect: independent noise per pixel and depth steps of 1/5000 m only (SensorModel
+  /// noise_window 1, disparity_step 0) instead of the disparity model.
+  bool white_depth_noise = false;
   /// The depth sensor's model (sensor_model()); width, height and fps are set on their own
   /// (sensor_format() gives the kind's).
   SensorKind sensor = SensorKind::kKinect;

@@ -103,12 +103,61 @@ std::uint16_t quantize(double z, const SensorModel& model) {
   return static_cast<std::uint16_t>(std::clamp(raw, 1.0, 65535.0));
 }
 
-/// Kinect v1: no depth at depth edges, depth_noise_sigma(z).
+/// The window's half width at this image's size (noise_window px at 640 wide).
+int noise_radius(const Intrinsics& k, const SensorModel& model) {
+  const double scaled = (std::max(1, model.noise_window) - 1) * 0.5 * k.width / 640.0;
+  return std::max(0, static_cast<int>(std::lround(scaled)));
+}
+
+/// Unit-variance noise per pixel for the Kinect model: white noise averaged over the window
+/// (2r+1 px square, drawn over the image and a border of r), or one independent draw per pixel
+/// in raster order when r is 0.
+std::vector<double> kinect_noise(const Intrinsics& k, const SensorModel& model, Rng& rng) {
+  const int r = noise_radius(k, model);
+  const int w = k.width + 2 * r, h = k.height + 2 * r;
+  std::vector<double> white(static_cast<std::size_t>(w) * h);
+  for (double& n : white) n = rng.normal();
+  if (r == 0) return white;
+  std::vector<double> rows(static_cast<std::size_t>(k.width) * h, 0.0);
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < k.width; ++u) {
+      double sum = 0.0;
+      for (int i = 0; i <= 2 * r; ++i) sum += white[static_cast<std::size_t>(v) * w + u + i];
+      rows[static_cast<std::size_t>(v) * k.width + u] = sum;
+    }
+  }
+  std::vector<double> field(static_cast<std::size_t>(k.width) * k.height);
+  const double norm = 1.0 / (2 * r + 1);  // the sum of (2r+1)^2 unit draws has sd 2r+1
+  for (int v = 0; v < k.height; ++v) {
+    for (int u = 0; u < k.width; ++u) {
+      double sum = 0.0;
+      for (int i = 0; i <= 2 * r; ++i) sum += rows[static_cast<std::size_t>(v + i) * k.width + u];
+      field[static_cast<std::size_t>(v) * k.width + u] = sum * norm;
+    }
+  }
+  return field;
+}
+
+/// Kinect v1 depth of true depth z with unit noise `noise`: the disparity's error brings the
+/// total, its steps included, to depth_noise_sigma(z); the disparity is quantized.
+double kinect_noisy_depth(double z, double noise, const SensorModel& model) {
+  const double sigma = depth_noise_sigma(z);
+  if (model.disparity_step <= 0.0) return z + noise * sigma;
+  const double step = disparity_depth_step(z, model);
+  const double sigma_below_steps = std::sqrt(std::max(0.0, sigma * sigma - step * step / 12.0));
+  const double bf = model.baseline_focal;
+  const double disparity = bf / z + noise * sigma_below_steps * bf / (z * z);
+  const double steps = std::max(1.0, std::round(disparity / model.disparity_step));
+  return bf / (steps * model.disparity_step);
+}
+
+/// Kinect v1: no depth at depth edges, kinect_noisy_depth.
 std::uint16_t kinect_depth(const std::vector<PixelHit>& px, const Intrinsics& k,
                            const SensorModel& model, int u, int v, double noise) {
   const PixelHit& p = px[static_cast<std::size_t>(v) * k.width + u];
   if (model.edge_dropout && depth_across_edge(px, k.width, k.height, u, v)) return 0;
-  return quantize(model.depth_noise ? p.z + noise * depth_noise_sigma(p.z) : p.z, model);
+  if (!model.depth_noise) return quantize(p.z, model);
+  return quantize(kinect_noisy_depth(p.z, noise, model), model);
 }
 
 /// Phone ToF: no depth where the amplitude is weak; at depth edges a flying pixel or none
@@ -141,12 +190,14 @@ DepthImage apply_sensor_model(const std::vector<PixelHit>& px, const Intrinsics&
       static_cast<float>(std::cos(model.max_incidence_deg * std::numbers::pi / 180.0));
   const bool tof = model.kind == SensorKind::kPhoneToF;
   Rng rng(seed);
+  const std::vector<double> kinect_field =
+      tof ? std::vector<double>{} : kinect_noise(k, model, rng);
   for (int v = 0; v < k.height; ++v) {
     for (int u = 0; u < k.width; ++u) {
       const std::size_t i = static_cast<std::size_t>(v) * k.width + u;
       // The same draws per pixel whatever happens to it, so that noise stays aligned across
       // images.
-      const double noise = rng.normal();
+      const double noise = tof ? rng.normal() : kinect_field[i];
       const double mix = tof ? rng.uniform() : 0.0;
       const PixelHit& p = px[i];
       if (p.primitive < 0 || p.z < model.min_depth || p.z > model.max_depth) continue;
@@ -222,6 +273,10 @@ SensorFormat sensor_format(SensorKind kind) {
 }
 
 double depth_noise_sigma(double z) { return 0.0012 + 0.0019 * (z - 0.4) * (z - 0.4); }
+
+double disparity_depth_step(double z, const SensorModel& model) {
+  return model.disparity_step > 0.0 ? z * z * model.disparity_step / model.baseline_focal : 0.0;
+}
 
 double tof_noise_sigma(double z, double reflectance, double cos_incidence) {
   return 0.01 * z * std::sqrt(0.5 / std::max(0.01, reflectance * cos_incidence));

@@ -54,6 +54,13 @@ double frame_time(const SynthConfig& c, int index) {
   return std::round((c.start_time + index / c.fps) * 1e6) / 1e6;
 }
 
+/// info.txt's depth_noise_model: "disparity" (the Kinect model: correlated over the window,
+/// disparity steps), "white" (independent per pixel) or "tof".
+const char* depth_noise_model(const SynthConfig& config) {
+  if (config.sensor == SensorKind::kPhoneToF) return "tof";
+  return config.white_depth_noise ? "white" : "disparity";
+}
+
 Status write_into(const SynthConfig& config, const fs::path& directory, SynthSummary& summary) {
   Result<SequenceWriter> created = SequenceWriter::create(directory);
   if (!created.ok()) return created.error();
@@ -64,6 +71,10 @@ Status write_into(const SynthConfig& config, const fs::path& directory, SynthSum
   const Intrinsics intrinsics = default_intrinsics(config.width, config.height);
   SensorModel model = sensor_model(config.sensor);
   model.depth_noise = config.depth_noise;
+  if (config.white_depth_noise) {
+    model.noise_window = 1;
+    model.disparity_step = 0.0;
+  }
 
   for (int i = 0; i < config.frames; ++i) {
     const double t = frame_time(config, i);
@@ -104,6 +115,7 @@ Status write_into(const SynthConfig& config, const fs::path& directory, SynthSum
       {"gyro_noise_density", format_number(gyro_density)},
       {"accel_noise_density", format_number(accel_density)},
       {"depth_noise", config.depth_noise ? "1" : "0"},
+      {"depth_noise_model", depth_noise_model(config)},
       {"world_frame", "z_up_metres"},
       {"source", "imufusion-synth"},
   };
