@@ -84,7 +84,8 @@ struct RelocalizationConfig {
   /// it about its last tracked vertical (camera y) all the way round in steps of this, each
   /// tilted by one step up and down, and tries each orientation a fused frame had (one per half
   /// step) that is more than half a step from all of those, within max_radius of where it was
-  /// lost. 0: no search without the gyroscope. Default 15.
+  /// lost (and within inertial.max_speed times the time since, which bounds every search's
+  /// fits). 0: no search without the gyroscope. Default 15.
   double turn_step_deg = 15;
   /// A fit elsewhere (ICP from another candidate, reliable but for the condition number) makes
   /// the view ambiguous only when its residual per weight is within this factor of the best

@@ -174,12 +174,14 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
                                                                             FrameTimings& timings) {
   const auto t0 = Clock::now();
   // Without the gyroscope the orientation is searched too, and the camera may be anywhere a
-  // hand-held scanner goes.
+  // hand-held scanner goes since the loss; a fit beyond that is no place for it, with or without.
   const bool turning = !frame.rotation_from_imu;
   if (!field_current_ || (turning && !coarse_current_))
     IMUFUSION_RETURN_IF_ERROR(build_field(model, frame.lost_at, turning));
-  const double radius =
-      turning ? config_.max_radius : drift_radius(frame.timestamp - frame.constrained_time);
+  // m: how far a hand-held camera (inertial.max_speed) can have gone since the loss.
+  const double reachable = max_speed_ * (frame.timestamp - frame.constrained_time);
+  const double radius = turning ? std::min(config_.max_radius, std::max(icp_reach_, reachable))
+                                : drift_radius(frame.timestamp - frame.constrained_time);
   auto all_points = model.frame_points(coarse_level_);
   if (!all_points) return all_points.error();
   constexpr std::size_t kMaxPoints = 800;  // enough for a chamfer fit; the search is linear in it
@@ -216,6 +218,9 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
     // No IMU prediction: the full six-direction solve, which a wall alone cannot pass.
     auto placed = model.place(depth, T_candidate, candidate_timings);
     if (!placed) return placed.error();
+    // ICP may slide a fit along a weak direction to where the camera cannot be: neither a place
+    // nor a rival.
+    if ((placed->T_world_camera.translation() - frame.lost_at).norm() > reachable) continue;
     const IcpResult& icp = placed->icp;
     if (icp.quality.iterations > 0 && judge_icp(icp.quality, plausible, nullptr)) {
       fits.push_back({placed->T_world_camera.translation(), icp.quality.residual_per_weight});
