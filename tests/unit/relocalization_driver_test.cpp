@@ -27,6 +27,7 @@ struct ScriptedFit {
   Fit fit = Fit::kNone;
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();  // world, m, from the frame's estimate
   double residual_per_weight = 1e-6;                 // m^2
+  double inlier_fraction = 0.8;                      // of a fit (kNone: 0.1)
 };
 
 class ScriptedModel : public ModelAligner {
@@ -53,7 +54,7 @@ class ScriptedModel : public ModelAligner {
     q.iterations = 3;
     q.converged = true;
     q.inliers = 5000;
-    q.inlier_fraction = scripted.fit == Fit::kNone ? 0.1 : 0.8;
+    q.inlier_fraction = scripted.fit == Fit::kNone ? 0.1 : scripted.inlier_fraction;
     q.pixel_fraction = q.inlier_fraction;
     q.condition = scripted.fit == Fit::kIllConditioned ? ill_condition : 100;
     q.residual_per_weight = scripted.residual_per_weight;
@@ -85,10 +86,12 @@ class RelocalizationDriverTest : public ::testing::Test {
     driver = RelocalizationDriver(config);
   }
 
-  // Lost frame k (30 fps) at an estimate that moves 1 cm a frame; the search's outcome.
-  std::optional<ModelAligner::Placement> lost_frame(int k) {
+  // Lost frame k (30 fps) at an estimate that moves 1 cm a frame, the last fully constrained
+  // frame `constrained` (a second before frame 0 by default); the search's outcome.
+  std::optional<ModelAligner::Placement> lost_frame(int k, int constrained = -30) {
     RelocalizationDriver::Frame f;
     f.timestamp = k / 30.0;
+    f.constrained_time = constrained / 30.0;
     f.lost = true;
     f.rotation_from_imu = true;
     f.T_world_estimate.translation() = Eigen::Vector3d(0.01 * k, 0, 0);
@@ -187,6 +190,40 @@ TEST_F(RelocalizationDriverTest, AFitElsewhereWithinTheRatioKeepsTheViewAmbiguou
   driver = RelocalizationDriver(config);
   model.fits = {{Fit::kReliable, correction, 1e-6}, {Fit::kIllConditioned, elsewhere, 30e-6}};
   for (int k = 6; k <= 10; ++k) EXPECT_FALSE(lost_frame(k));
+}
+
+TEST_F(RelocalizationDriverTest, AFitElsewhereThatPairsLessOfTheViewIsNoRival) {
+  // The fit elsewhere has the best fit's residual but pairs half its inlier fraction (a wall of
+  // the view fits there): no rival, and the best fit is taken at once.
+  const double ratio = config.relocalization.rival_inlier_ratio;
+  ASSERT_GT(ratio, 0.5);
+  model.fits = {{Fit::kReliable, correction, 1e-6, 0.8}, {Fit::kReliable, elsewhere, 1e-6, 0.4}};
+  for (int k = 1; k <= 4; ++k) EXPECT_FALSE(lost_frame(k));
+  EXPECT_TRUE(placed_at_correction(lost_frame(5), 5));
+  // Pairing nearly as much as the best one, it is a rival again.
+  driver = RelocalizationDriver(config);
+  model.fits = {{Fit::kReliable, correction, 1e-6, 0.8},
+                {Fit::kReliable, elsewhere, 1e-6, 0.8 * (1 + ratio) / 2}};
+  for (int k = 1; k <= 30; ++k) EXPECT_FALSE(lost_frame(k));
+}
+
+TEST_F(RelocalizationDriverTest, AFitWhereTheCameraCannotBeIsNeitherAPlaceNorARival) {
+  // Lost at frame -1: at frame 5, 0.2 s later, a hand-held camera (inertial.max_speed, 2 m/s)
+  // is within 0.4 m of where it was lost. The fit 0.5 m away rivals nothing there, and the one
+  // 0.22 m away is taken.
+  ASSERT_NEAR(config.inertial.max_speed, 2.0, 1e-12);
+  model.fits = {{Fit::kReliable, correction}, {Fit::kReliable, elsewhere}};
+  for (int k = 1; k <= 4; ++k) EXPECT_FALSE(lost_frame(k, -1));
+  EXPECT_TRUE(placed_at_correction(lost_frame(5, -1), 5));
+  // The farther fit alone is no place at frame 5, and is one at the next search (frame 10,
+  // 0.37 s, 0.73 m).
+  driver = RelocalizationDriver(config);
+  model.fits = {{Fit::kReliable, elsewhere}};
+  for (int k = 1; k <= 9; ++k) EXPECT_FALSE(lost_frame(k, -1));
+  const auto found = lost_frame(10, -1);
+  ASSERT_TRUE(found);
+  EXPECT_LT((found->T_world_camera.translation() - Eigen::Vector3d(0.1, 0, 0) - elsewhere).norm(),
+            1e-9);
 }
 
 TEST_F(RelocalizationDriverTest, AFrameThatIsNotLostForgetsTheCorrectionWaitingForConfirmation) {
@@ -341,13 +378,14 @@ Eigen::Isometry3d upright_camera(const Eigen::Vector3d& position, double yaw_deg
 }
 
 // The frame lost `k` frames without a gyroscope (`fps` frames a second), at the estimate
-// `T_estimate` (where the scan was lost); the search's outcome.
+// `T_estimate` (where the scan was lost a second before frame 0); the search's outcome.
 std::optional<ModelAligner::Placement> lost_without_gyro(RelocalizationDriver& driver,
                                                          ModelAligner& model, int k,
                                                          const Eigen::Isometry3d& T_estimate,
                                                          double fps = 30) {
   RelocalizationDriver::Frame f;
   f.timestamp = k / fps;
+  f.constrained_time = -1.0;
   f.lost = true;
   f.rotation_from_imu = false;
   f.T_world_estimate = T_estimate;

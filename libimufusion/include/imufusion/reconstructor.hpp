@@ -92,6 +92,10 @@ struct RelocalizationConfig {
   /// fit's; 0: any fit elsewhere. Default 4: an RMS residual twice the best's (bench/README.md,
   /// "A rival fit must explain the view as well").
   double rival_residual_ratio = 4;
+  /// ...and only when it pairs at least this share of the best fit's information-weighted
+  /// inlier fraction (IcpQuality::inlier_fraction); 0: however little. Default 0.7
+  /// (bench/README.md, "A rival fit must pair the view as well").
+  double rival_inlier_ratio = 0.7;
 };
 
 /// How a lost frame settles onto the model again.

@@ -82,6 +82,7 @@ Status ReconstructorConfig::validate() const {
       {"relocalization.drift_acceleration", r.drift_acceleration},
       {"relocalization.near_fit_condition_factor", r.near_fit_condition_factor},
       {"relocalization.rival_residual_ratio", r.rival_residual_ratio},
+      {"relocalization.rival_inlier_ratio", r.rival_inlier_ratio},
       {"smoothing.partial_move_sigma", smoothing.partial_move_sigma},
       {"smoothing.retracked_frame_sigma", smoothing.retracked_frame_sigma},
       {"recovery.agreement_distance", recovery.agreement_distance}};

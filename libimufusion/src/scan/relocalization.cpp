@@ -223,7 +223,8 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
     if ((placed->T_world_camera.translation() - frame.lost_at).norm() > reachable) continue;
     const IcpResult& icp = placed->icp;
     if (icp.quality.iterations > 0 && judge_icp(icp.quality, plausible, nullptr)) {
-      fits.push_back({placed->T_world_camera.translation(), icp.quality.residual_per_weight});
+      fits.push_back({placed->T_world_camera.translation(), icp.quality.residual_per_weight,
+                      icp.quality.inlier_fraction});
       // A fit that only the condition number fails, narrowly: the next frame searches again
       // (at the gyro's orientation; a sweep over orientations finds such fits anywhere).
       near_fit_ =
@@ -231,18 +232,23 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
                         icp.quality.condition <= config_.near_fit_condition_factor * max_condition);
     }
     if (!icp.reliable() || !icp.quality.converged) continue;
-    placed_at.push_back({placed->T_world_camera.translation(), icp.quality.residual_per_weight});
+    placed_at.push_back({placed->T_world_camera.translation(), icp.quality.residual_per_weight,
+                         icp.quality.inlier_fraction});
     if (!best || icp.quality.residual_per_weight < best->icp.quality.residual_per_weight)
       best = std::move(*placed);
   }
   const double apart = 2 * config_.cell;
   // A fit elsewhere that explains the frame about as well as the best one: its residual per
-  // weight within relocalization.rival_residual_ratio of the best's (0: any fit elsewhere).
+  // weight within relocalization.rival_residual_ratio of the best's (0: any fit elsewhere), and
+  // its inlier fraction at least relocalization.rival_inlier_ratio of the best's. Where the
+  // noise, not the place, sets the residual, a fit of part of the view (a wall that pairs
+  // elsewhere) has the best's residual but pairs less of the view.
   const auto rival = [&](const Fit& f) {
+    const IcpQuality& b = best->icp.quality;
     return (f.at - best->T_world_camera.translation()).norm() > apart &&
            (config_.rival_residual_ratio <= 0 ||
-            f.residual_per_weight <=
-                config_.rival_residual_ratio * best->icp.quality.residual_per_weight);
+            f.residual_per_weight <= config_.rival_residual_ratio * b.residual_per_weight) &&
+           f.inlier_fraction >= config_.rival_inlier_ratio * b.inlier_fraction;
   };
   // Within two cells, and `moved` (m) beyond them.
   const auto near = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b, double moved = 0) {

@@ -56,6 +56,7 @@ class RelocalizationDriver {
   struct Fit {
     Eigen::Vector3d at;
     double residual_per_weight = 0;
+    double inlier_fraction = 0;  // IcpQuality::inlier_fraction
   };
   // A place the search proposes: the frame's orientation there and its translation.
   struct Oriented {
