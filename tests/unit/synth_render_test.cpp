@@ -216,19 +216,15 @@ TEST(SynthRender, KinectNoiseIsSharedOverTheWindow) {
   // A 9 px box shares 8/9 of neighbours' noise; the 2.9 mm steps at 1 m keep most of it.
   EXPECT_GT(correlation, 0.6);
   EXPECT_GT(flat, 0.3);
-  model.noise_window = 1;
-  model.disparity_step = 0.0;
-  const auto [white_correlation, white_flat] =
-      neighbour_structure(render_depth(scene, Eigen::Isometry3d::Identity(), k, model, 3), 1.0);
+  const auto [white_correlation, white_flat] = neighbour_structure(
+      render_depth(scene, Eigen::Isometry3d::Identity(), k, white_noise_model(model), 3), 1.0);
   EXPECT_LT(std::abs(white_correlation), 0.02);
   EXPECT_LT(white_flat, 0.1);
 }
 
 TEST(SynthRender, WhiteKinectNoiseFollowsTheModelPerPixel) {
   const Intrinsics k = default_intrinsics(160, 120);
-  SensorModel model;
-  model.noise_window = 1;
-  model.disparity_step = 0.0;
+  const SensorModel model = white_noise_model(SensorModel{});
   const DepthImage raw = render_depth(plane_scene(Eigen::Vector3d::UnitZ(), 2.0),
                                       Eigen::Isometry3d::Identity(), k, model, 11);
   double sum2 = 0;

@@ -65,7 +65,7 @@ bool RelocalizationDriver::long_loss(const Frame& frame) const {
   if (frame.rotation_from_imu) return drift_radius(lost_seconds) > icp_reach_;
   // Without the gyroscope nothing follows the camera: it may be anywhere a hand-held camera
   // goes (inertial.max_speed) since the loss, and only the search over orientations confirms.
-  return config_.turn_step_deg > 0 && max_speed_ * lost_seconds > icp_reach_;
+  return config_.turn_step_deg > 0 && reach(lost_seconds) > icp_reach_;
 }
 
 // Whether this frame searches for its pose: every relocalization.interval lost frames, the
@@ -178,10 +178,10 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
   const bool turning = !frame.rotation_from_imu;
   if (!field_current_ || (turning && !coarse_current_))
     IMUFUSION_RETURN_IF_ERROR(build_field(model, frame.lost_at, turning));
-  // m: how far a hand-held camera (inertial.max_speed) can have gone since the loss.
-  const double reachable = max_speed_ * (frame.timestamp - frame.constrained_time);
+  const double lost_seconds = frame.timestamp - frame.constrained_time;
+  const double reachable = reach(lost_seconds);  // m: how far the camera can have gone since
   const double radius = turning ? std::min(config_.max_radius, std::max(icp_reach_, reachable))
-                                : drift_radius(frame.timestamp - frame.constrained_time);
+                                : drift_radius(lost_seconds);
   auto all_points = model.frame_points(coarse_level_);
   if (!all_points) return all_points.error();
   constexpr std::size_t kMaxPoints = 800;  // enough for a chamfer fit; the search is linear in it
@@ -222,9 +222,10 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
     // nor a rival.
     if ((placed->T_world_camera.translation() - frame.lost_at).norm() > reachable) continue;
     const IcpResult& icp = placed->icp;
+    const Fit fit{placed->T_world_camera.translation(), icp.quality.residual_per_weight,
+                  icp.quality.inlier_fraction};
     if (icp.quality.iterations > 0 && judge_icp(icp.quality, plausible, nullptr)) {
-      fits.push_back({placed->T_world_camera.translation(), icp.quality.residual_per_weight,
-                      icp.quality.inlier_fraction});
+      fits.push_back(fit);
       // A fit that only the condition number fails, narrowly: the next frame searches again
       // (at the gyro's orientation; a sweep over orientations finds such fits anywhere).
       near_fit_ =
@@ -232,8 +233,7 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
                         icp.quality.condition <= config_.near_fit_condition_factor * max_condition);
     }
     if (!icp.reliable() || !icp.quality.converged) continue;
-    placed_at.push_back({placed->T_world_camera.translation(), icp.quality.residual_per_weight,
-                         icp.quality.inlier_fraction});
+    placed_at.push_back(fit);
     if (!best || icp.quality.residual_per_weight < best->icp.quality.residual_per_weight)
       best = std::move(*placed);
   }
@@ -266,9 +266,9 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
     // camera moves between the two frames (inertial.max_speed). An only fit that the next
     // search does not confirm has the lost frame after it search again.
     const bool unique = best && std::none_of(fits.begin(), fits.end(), rival);
-    const bool confirmed = unique && unconfirmed_correction_ &&
-                           near(correction, *unconfirmed_correction_,
-                                max_speed_ * std::max(0.0, frame.timestamp - unconfirmed_time_));
+    const bool confirmed =
+        unique && unconfirmed_correction_ &&
+        near(correction, *unconfirmed_correction_, reach(frame.timestamp - unconfirmed_time_));
     confirm_next_ = unique && !confirmed;
     if (unique) {
       unconfirmed_correction_ = correction;

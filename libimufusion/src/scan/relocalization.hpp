@@ -3,6 +3,7 @@
 // (ReconstructorConfig::relocalization), the search itself (core/relocalizer.hpp) over a distance
 // field of the model, and full ICP from its best candidates.
 
+#include <algorithm>
 #include <optional>
 #include <vector>
 
@@ -64,6 +65,8 @@ class RelocalizationDriver {
     TranslationCandidate at;
   };
   double drift_radius(double lost_seconds) const;
+  // m: how far a hand-held camera (inertial.max_speed) goes in `seconds`.
+  double reach(double seconds) const { return max_speed_ * std::max(0.0, seconds); }
   bool long_loss(const Frame& frame) const;
   bool should_search(const Frame& frame, bool long_loss);
   void forget_ambiguity();

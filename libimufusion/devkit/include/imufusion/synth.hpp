@@ -157,6 +157,10 @@ struct SensorModel {
 /// steps, min_amplitude 0.02 (a grey surface, reflectance 0.5, head-on to 5 m).
 SensorModel sensor_model(SensorKind kind);
 
+/// `model` with independent per-pixel noise and no disparity steps (noise_window 1,
+/// disparity_step 0): the Kinect model before disparity quantization.
+SensorModel white_noise_model(SensorModel model);
+
 /// Image size (px) and frame rate (Hz) the kind delivers: 640x480 at 30 Hz for kKinect,
 /// 240x180 at 30 Hz for kPhoneToF (the DEPTH16 stream of IMX316-class phones).
 struct SensorFormat {

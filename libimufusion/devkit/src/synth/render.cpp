@@ -267,6 +267,12 @@ SensorModel sensor_model(SensorKind kind) {
   return model;
 }
 
+SensorModel white_noise_model(SensorModel model) {
+  model.noise_window = 1;
+  model.disparity_step = 0.0;
+  return model;
+}
+
 SensorFormat sensor_format(SensorKind kind) {
   if (kind == SensorKind::kPhoneToF) return {240, 180, 30.0};
   return {};

@@ -71,10 +71,7 @@ Status write_into(const SynthConfig& config, const fs::path& directory, SynthSum
   const Intrinsics intrinsics = default_intrinsics(config.width, config.height);
   SensorModel model = sensor_model(config.sensor);
   model.depth_noise = config.depth_noise;
-  if (config.white_depth_noise) {
-    model.noise_window = 1;
-    model.disparity_step = 0.0;
-  }
+  if (config.white_depth_noise) model = white_noise_model(model);
 
   for (int i = 0; i < config.frames; ++i) {
     const double t = frame_time(config, i);
