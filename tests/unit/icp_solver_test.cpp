@@ -347,6 +347,25 @@ TEST(IcpCpu, AFlatWallIsIllConditionedAndUnreliable) {
   EXPECT_NE(result->reason.find("condition"), std::string::npos) << result->reason;
 }
 
+TEST(IcpCpu, TheTranslationConditionTellsAWallFromAViewThatFixesThePosition) {
+  // A wall leaves two translations free: the kappa of the translation alone is far above
+  // relocalization.max_translation_condition (100). The room fixes all three well within it.
+  const double limit = 100;
+  Pair wall = render_pair(flat_wall(), Eigen::Isometry3d::Identity(),
+                          small_motion(0.5, {0, 1, 0}, {0.02, 0.01, 0.0}), /*noise=*/true);
+  reference::CpuNormalEquationSource wall_source(wall.reference, wall.current, wall.k);
+  auto on_wall = run_icp(wall_source, IcpConfig{}, Eigen::Isometry3d::Identity());
+  ASSERT_TRUE(on_wall.ok());
+  EXPECT_GT(on_wall->quality.translation_condition, 5 * limit);
+  Pair room = render_pair(synth::make_scene(synth::SceneKind::kRoom, 1), room_view(),
+                          small_motion(2.0, {0.3, 1, 0.2}, {0.03, -0.02, 0.04}), /*noise=*/true);
+  reference::CpuNormalEquationSource room_source(room.reference, room.current, room.k);
+  auto in_room = run_icp(room_source, IcpConfig{}, Eigen::Isometry3d::Identity());
+  ASSERT_TRUE(in_room.ok());
+  EXPECT_LT(in_room->quality.translation_condition, limit);
+  EXPECT_GE(in_room->quality.translation_condition, 1);
+}
+
 TEST(IcpCpu, AFlatWallSolvedDegeneracyAwareKeepsTheSeedAlongTheWall) {
   // The wall constrains its normal translation and the two tilts; the in-plane translations and
   // the rotation about the normal come from the seed (the IMU's prediction in the scanner). A

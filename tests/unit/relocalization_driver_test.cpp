@@ -10,6 +10,7 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "inertial_test_fixtures.hpp"
@@ -39,8 +40,10 @@ class ScriptedModel : public ModelAligner {
 
   std::vector<ScriptedFit> fits;  // this search's candidates, in order
   double ill_condition = 1e4;     // an ill-conditioned fit's kappa: a wall's, by default
-  Eigen::Isometry3d estimate;     // the frame's estimate
-  int searches = 0;               // searches started (frame_points calls)
+  // ...and its translation's (IcpQuality::translation_condition): a wall's two free directions
+  double ill_translation_condition = std::numeric_limits<double>::infinity();
+  Eigen::Isometry3d estimate;  // the frame's estimate
+  int searches = 0;            // searches started (frame_points calls)
 
   Status load_frame(const DepthView&, FrameTimings&) override { return {}; }
   Status set_reference(const Eigen::Isometry3d&, FrameTimings&) override { return {}; }
@@ -57,6 +60,7 @@ class ScriptedModel : public ModelAligner {
     q.inlier_fraction = scripted.fit == Fit::kNone ? 0.1 : scripted.inlier_fraction;
     q.pixel_fraction = q.inlier_fraction;
     q.condition = scripted.fit == Fit::kIllConditioned ? ill_condition : 100;
+    q.translation_condition = scripted.fit == Fit::kIllConditioned ? ill_translation_condition : 10;
     q.residual_per_weight = scripted.residual_per_weight;
     p.icp.verdict =
         scripted.fit == Fit::kReliable ? IcpVerdict::kReliable : IcpVerdict::kUnreliable;
@@ -94,6 +98,7 @@ class RelocalizationDriverTest : public ::testing::Test {
     f.constrained_time = constrained / 30.0;
     f.lost = true;
     f.rotation_from_imu = true;
+    f.partial_directions = partial_directions;
     f.T_world_estimate.translation() = Eigen::Vector3d(0.01 * k, 0, 0);
     f.lost_at = f.T_world_estimate.translation();
     model.estimate = f.T_world_estimate;
@@ -112,6 +117,7 @@ class RelocalizationDriverTest : public ::testing::Test {
   ReconstructorConfig config;
   RelocalizationDriver driver;
   ScriptedModel model;
+  int partial_directions = 0;  // the lost frames' partial ICP from the seed (0: not partial)
   const Eigen::Vector3d correction{0.2, -0.1, 0};  // where the camera is, from its estimate
   const Eigen::Vector3d elsewhere{-0.3, 0.4, 0};   // another fit, more than 2 cells away
   const Eigen::Vector3d slid{0.0, 0.4, 0};         // that fit in the next view, 0.3 m on
@@ -270,6 +276,51 @@ TEST_F(RelocalizationDriverTest, TheNearFitRetryCanBeTurnedOff) {
   EXPECT_EQ(model.searches, 1);
 }
 
+TEST_F(RelocalizationDriverTest, WithTheGyroAFitThatFixesThePositionEndsTheLoss) {
+  // The view leaves a wall: kappa 1e4 along the rotation about the wall's normal, but the
+  // translation alone is well conditioned (kappa 20, within relocalization.
+  // max_translation_condition, 100): the search started at the gyro's orientation places it.
+  ASSERT_NEAR(config.relocalization.max_translation_condition, 100, 1e-12);
+  model.ill_translation_condition = 20;
+  model.fits = {{Fit::kIllConditioned, correction}};
+  for (int k = 1; k <= 4; ++k) EXPECT_FALSE(lost_frame(k));
+  const auto found = lost_frame(5);
+  EXPECT_TRUE(placed_at_correction(found, 5));
+  ASSERT_TRUE(found);
+  EXPECT_TRUE(found->icp.reliable());
+  EXPECT_TRUE(found->icp.reason.empty()) << found->icp.reason;
+}
+
+TEST_F(RelocalizationDriverTest, AFitWhoseTranslationSlidesOrWithTheLimitOffDoesNot) {
+  // Its translation's kappa 150 (above the limit: it may slide along the wall), or the limit
+  // off: no search of ten lost frames ends the loss.
+  for (const auto& [limit, translation] : {std::pair{100.0, 150.0}, std::pair{0.0, 20.0}}) {
+    config.relocalization.max_translation_condition = limit;
+    driver = RelocalizationDriver(config);
+    model.ill_translation_condition = translation;
+    model.fits = {{Fit::kIllConditioned, correction}};
+    for (int k = 1; k <= 10; ++k) EXPECT_FALSE(lost_frame(k)) << limit << " " << translation;
+  }
+  EXPECT_EQ(model.searches, 4);  // frames 5 and 10 of each
+}
+
+TEST_F(RelocalizationDriverTest, AViewThatFixesMoreThanAPlaneSearchesAtEveryLostFrame) {
+  // Partial ICP from the seed fixed 4 directions, one more than a wall: the view is leaving it,
+  // and each lost frame searches (a wall's 3 wait for the regular search).
+  model.fits = {{Fit::kIllConditioned, correction}};
+  partial_directions = 3;
+  for (int k = 1; k <= 4; ++k) EXPECT_FALSE(lost_frame(k));
+  EXPECT_EQ(model.searches, 0);
+  partial_directions = 4;
+  for (int k = 5; k <= 7; ++k) EXPECT_FALSE(lost_frame(k));
+  EXPECT_EQ(model.searches, 3);
+  partial_directions = 3;
+  for (int k = 8; k <= 11; ++k) EXPECT_FALSE(lost_frame(k));
+  EXPECT_EQ(model.searches, 3);
+  EXPECT_FALSE(lost_frame(12));  // five lost frames after the last search
+  EXPECT_EQ(model.searches, 4);
+}
+
 // A box room, 2.4 x 1.6 x 1.2 m (z up), and a camera in it that turned and moved while the scan
 // was lost without a gyroscope: the frame's points are the room seen from the true pose, and
 // ICP (scripted) settles only from a seed within its basin around that pose.
@@ -284,6 +335,8 @@ class TurnedRoomModel : public ModelAligner {
 
   Eigen::Isometry3d truth = Eigen::Isometry3d::Identity();
   std::vector<Eigen::Isometry3d> seeds;  // where ICP was started
+  // kappa of a fit in the basin, and of its translation alone: reliable up to 562.3
+  double basin_condition = 100, basin_translation_condition = 10;
 
   Status load_frame(const DepthView&, FrameTimings&) override { return {}; }
   Status set_reference(const Eigen::Isometry3d&, FrameTimings&) override { return {}; }
@@ -298,9 +351,12 @@ class TurnedRoomModel : public ModelAligner {
     q.converged = true;
     q.inliers = 5000;
     q.inlier_fraction = q.pixel_fraction = in_basin ? 0.9 : 0.1;
-    q.condition = 100;
+    q.condition = in_basin ? basin_condition : 100;
+    q.translation_condition = in_basin ? basin_translation_condition : 10;
     q.residual_per_weight = 1e-6;
-    p.icp.verdict = in_basin ? IcpVerdict::kReliable : IcpVerdict::kUnreliable;
+    p.icp.verdict = in_basin && q.condition <= IcpReliabilityThresholds{}.max_condition
+                        ? IcpVerdict::kReliable
+                        : IcpVerdict::kUnreliable;
     return p;
   }
   IcpReliabilityThresholds reliability(const DepthView&) const override { return {}; }
@@ -396,6 +452,18 @@ std::optional<ModelAligner::Placement> lost_without_gyro(RelocalizationDriver& d
   return out.ok() ? out->found : std::nullopt;
 }
 
+// The scan lost facing +x at (0.8, 0.6, 0.6), the camera since turned 140 deg and moved 0.5 m
+// (it faces the corner of the walls x = 0 and y = 1.6): lost frames 1 to `frames` search without
+// a gyroscope, and none ends the loss.
+void expect_never_placed(TurnedRoomModel& model, int frames) {
+  const Eigen::Isometry3d lost_at = upright_camera(Eigen::Vector3d(0.8, 0.6, 0.6), 0);
+  model.truth = upright_camera(Eigen::Vector3d(1.2, 0.9, 0.6), 140);
+  RelocalizationDriver driver{ReconstructorConfig{}};
+  for (int k = 1; k <= frames; ++k)
+    EXPECT_FALSE(lost_without_gyro(driver, model, k, lost_at)) << "lost frame " << k;
+  EXPECT_FALSE(model.seeds.empty());
+}
+
 TEST(RelocalizationWithoutGyro, TheSearchFindsAFrameThatTurnedAndMovedWhileLost) {
   TurnedRoomModel model;
   // Lost facing +x at (0.8, 0.6, 0.6); the camera turned 140 deg and moved 0.5 m since, and
@@ -419,6 +487,15 @@ TEST(RelocalizationWithoutGyro, TheSearchFindsAFrameThatTurnedAndMovedWhileLost)
   EXPECT_LT(test::angle_between(model.seeds.front().linear(), model.truth.linear()),
             7.5 * test::kDeg);
   EXPECT_LT((model.seeds.front().translation() - model.truth.translation()).norm(), 0.15);
+}
+
+TEST(RelocalizationWithoutGyro, AFitThatFixesOnlyThePositionDoesNotPlaceTheFrame) {
+  // Without the gyroscope the search finds the orientation too: a fit whose rotation the depth
+  // leaves weak (kappa 1e4) is not taken for its well-conditioned translation (kappa 20).
+  TurnedRoomModel model;
+  model.basin_condition = 1e4;
+  model.basin_translation_condition = 20;
+  expect_never_placed(model, 3 * ReconstructorConfig{}.relocalization.interval);
 }
 
 TEST(RelocalizationWithoutGyro, TheConfirmationAllowsForWhatTheCameraMovesBetweenTheFrames) {
@@ -459,13 +536,7 @@ TEST(RelocalizationWithoutGyro, AFitElsewhereRejectsTheBestOne) {
   // ICP also settles, reliably, at a place 0.6 m away (a like-looking corner): nothing is taken,
   // however often the frame searches.
   AliasedRoomModel model({});
-  const Eigen::Isometry3d lost_at = upright_camera(Eigen::Vector3d(0.8, 0.6, 0.6), 0);
-  model.truth = upright_camera(Eigen::Vector3d(1.2, 0.9, 0.6), 140);
-  ReconstructorConfig config;
-  RelocalizationDriver driver(config);
-  for (int k = 1; k <= 4 * config.relocalization.interval; ++k)
-    EXPECT_FALSE(lost_without_gyro(driver, model, k, lost_at));
-  EXPECT_FALSE(model.seeds.empty());
+  expect_never_placed(model, 4 * ReconstructorConfig{}.relocalization.interval);
 }
 
 TEST(RelocalizationWithoutGyro, AFitElsewhereThatExplainsTheFrameWorseRejectsNothing) {

@@ -501,6 +501,31 @@ TEST(DriftCorrections, RecordedMovesMeasureTheDriftBeforeThem) {
   EXPECT_LT(worst_x(c), 0.005);
 }
 
+// The gyro drifted nothing over a 2 s loss, but partial ICP turned the estimate 2 degrees at
+// 1.9 s (a view leaving a wall, its few new pixels paired at the wrong place) and the frames
+// after it kept that turn: the end error is the turn, undone. With the turn recorded, only the
+// frames from 1.9 s on are turned back; unrecorded, it is spread over the stretch as gyro drift.
+TEST(DriftCorrections, ATurnOfTheLastFramesIsUndoneThereNotSpreadAsDrift) {
+  const double T = 2.0;
+  std::vector<StretchFrame> frames = stretch_frames(T, 1.0 / 30);
+  DriftPrior prior;
+  prior.gyro_bias_sigma = 0.003;
+  prior.gyro_noise_density = 0.003;
+  const std::size_t at = 56;  // s = 1.9
+  ASSERT_NEAR(frames[at].s, 1.9, 1e-9);
+  const Eigen::Vector3d turn = Eigen::Vector3d(0, 2, 0) * std::numbers::pi / 180;
+  frames[at].turned = turn;
+  const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
+  const auto c = drift_corrections(frames, T, zero, -turn, prior);
+  for (std::size_t k = 0; k < c.size(); ++k) {
+    const Eigen::Vector3d truth = k < at ? zero : Eigen::Vector3d(-turn);
+    EXPECT_LT((c[k].rotation - truth).norm(), 1e-6) << k;
+  }
+  std::vector<StretchFrame> unrecorded = stretch_frames(T, 1.0 / 30);
+  const auto u = drift_corrections(unrecorded, T, zero, -turn, prior);
+  EXPECT_GT(u[at / 2].rotation.norm(), 0.3 * turn.norm());
+}
+
 // A partial alignment that settled on the wrong stretch of the model: 3.9 s into the loss it
 // claims the x drift is nil (no move) where it is ~20 cm, and the end error (measured by a
 // confirmed recovery) says otherwise. The claim is not taken: the corrections are those of the

@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -240,9 +241,12 @@ struct IcpQuality {
   double covered_inlier_fraction = 0;  // NormalEquations::covered_inlier_fraction
   double weight_sum = 0;               // sum(w)
   double condition = 0;                // kappa = sigma_max / sigma_min of AtA (inf when singular)
-  int iterations = 0;                  // Gauss-Newton steps run, all levels
-  int coarse_iterations = 0;           // of those, the steps run below full resolution (levels 1..)
-  bool converged = false;              // the finest level's update fell below the thresholds
+  /// kappa of AtA's translation block (inf when singular or not evaluated): how well the depth
+  /// fixes the position at a known orientation. A wall leaves two of its directions free.
+  double translation_condition = std::numeric_limits<double>::infinity();
+  int iterations = 0;         // Gauss-Newton steps run, all levels
+  int coarse_iterations = 0;  // of those, the steps run below full resolution (levels 1..)
+  bool converged = false;     // the finest level's update fell below the thresholds
   /// Directions of the last step updated by ICP: 6 unless degeneracy-aware solving left some at
   /// the initial pose.
   int constrained_directions = 6;

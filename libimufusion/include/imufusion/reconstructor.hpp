@@ -96,6 +96,12 @@ struct RelocalizationConfig {
   /// inlier fraction (IcpQuality::inlier_fraction); 0: however little. Default 0.7
   /// (bench/README.md, "A rival fit must pair the view as well").
   double rival_inlier_ratio = 0.7;
+  /// With the gyroscope, a fit that passes every test but the condition number places the frame
+  /// when the condition of its translation alone (IcpQuality::translation_condition) is at most
+  /// this: a view leaving a wall fixes the position while kappa is still large along the
+  /// rotation about the wall's normal. 0: off. Default 100 (bench/README.md, "A fit that fixes
+  /// the position").
+  double max_translation_condition = 100;
 };
 
 /// How a lost frame settles onto the model again.

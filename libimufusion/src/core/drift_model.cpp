@@ -108,9 +108,11 @@ class DriftModel {
   // One run of the error dynamics over the intervals, on any affine function of z (3 x (n + 1)
   // maps) or on values (3 x 1): the rotation error moves by the bias error and the noise
   // increment, the acceleration is constant at its midpoint value.
-  template <typename M, typename V, typename NoiseOf, typename AtMove, typename AtFrame>
+  template <typename M, typename V, typename NoiseOf, typename AtTurn, typename AtMove,
+            typename AtFrame>
   void run(M& rotation, M& position, M& velocity, const V& bias, const V& accel_bias,
-           const V& gravity, const NoiseOf& noise_of, AtMove&& at_move, AtFrame&& at_frame) const {
+           const V& gravity, const NoiseOf& noise_of, AtTurn&& at_turn, AtMove&& at_move,
+           AtFrame&& at_frame) const {
     double last = 0;
     for (std::size_t k = 0; k < intervals_; ++k) {
       const double end = std::max(last, interval_end(k));
@@ -124,6 +126,7 @@ class DriftModel {
       velocity += acceleration * h;
       rotation += step;
       if (k < frames_.size()) {
+        at_turn(k, rotation);
         if (measured_move(k)) at_move(k, position);
         position = (Eigen::Matrix3d::Identity() - reset(k)) * position;
         at_frame(k);
@@ -187,6 +190,7 @@ void DriftModel::collect(std::vector<Measurement>& moves, std::vector<Measuremen
   run(
       rotation, position, velocity, unknown(kGyroBias), unknown(kAccelBias), unknown(kGravity),
       [&](std::size_t k) { return unknown(noise_index(k)); },
+      [&](std::size_t k, Eigen::MatrixXd& r) { r.col(constant) -= frames_[k].turned; },
       [&](std::size_t k, Eigen::MatrixXd& p) {
         const Eigen::Matrix3d N = newly_fixed(k);
         if (N.trace() >= 0.5)
@@ -247,6 +251,7 @@ Eigen::Vector3d DriftModel::corrections_at(const Eigen::VectorXd& z,
       r, p, v, Eigen::Vector3d(z.segment<3>(kGyroBias)), Eigen::Vector3d(z.segment<3>(kAccelBias)),
       Eigen::Vector3d(z.segment<3>(kGravity)),
       [&](std::size_t k) -> Eigen::Vector3d { return z.segment<3>(noise_index(k)); },
+      [&](std::size_t k, Eigen::Vector3d& rotation) { rotation -= frames_[k].turned; },
       [&](std::size_t k, Eigen::Vector3d& position) { position -= frames_[k].moved; },
       [&](std::size_t k) {
         out[k] = StretchCorrection{p, r};

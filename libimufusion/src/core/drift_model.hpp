@@ -34,6 +34,9 @@ struct StretchFrame {
   // fixed directions are exact (the drift restarts there) and no move is recorded.
   Eigen::Vector3d moved = Eigen::Vector3d::Zero();
   double moved_sigma = 0;
+  // How far ICP turned the frame from where dead reckoning put it (world rotation vector, rad:
+  // estimate = Exp(turned) * dead-reckoned): the rotation error drops by it there.
+  Eigen::Vector3d turned = Eigen::Vector3d::Zero();
   // A frame a recovery placed by ICP (backward from it): its position error, truth - estimate
   // (world), measured with this sigma per axis; zero: not measured.
   Eigen::Vector3d observed = Eigen::Vector3d::Zero();
@@ -58,6 +61,8 @@ struct StretchCorrection {
 ///     corrected acceleration is -delta(s) x g, plus the accelerometer bias error (camera frame,
 ///     turning with the camera) and the gravity estimate's error (world); the velocity error at
 ///     the start adds a linear term.
+///   - Where ICP turned a frame (`turned`), the rotation error drops by the turn: a partial
+///     alignment that turned the last frames wrongly is undone there, not spread as gyro drift.
 ///   - Where ICP placed a frame partly (a bare wall fixes the distance to it), its position was
 ///     right along the fixed directions: the error there starts again from zero while the
 ///     velocity and bias errors run on.

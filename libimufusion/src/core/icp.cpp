@@ -398,6 +398,15 @@ struct LastStep {
   int finest_run = 0;                               // the finest level that ran a step
 };
 
+// kappa of the translation block of the depth's AtA (inf when singular or not finite).
+double translation_condition(const Eigen::Matrix<double, 6, 6>& AtA) {
+  const Eigen::Matrix3d block = AtA.bottomRightCorner<3, 3>();
+  if (!block.allFinite()) return std::numeric_limits<double>::infinity();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(block, Eigen::EigenvaluesOnly);
+  const Eigen::Vector3d& values = solver.eigenvalues();  // ascending
+  return values(0) > 0 ? values(2) / values(0) : std::numeric_limits<double>::infinity();
+}
+
 // The quality figures of one Gauss-Newton step.
 void record_step(IcpQuality& q, const NormalEquations& eq, const IcpStep& step) {
   q.inliers = eq.inliers;
@@ -407,6 +416,7 @@ void record_step(IcpQuality& q, const NormalEquations& eq, const IcpStep& step) 
   q.covered_inlier_fraction = eq.covered_inlier_fraction();
   q.pixel_fraction = eq.pixel_fraction();
   q.condition = step.condition;
+  q.translation_condition = translation_condition(eq.AtA);
   q.residual = step.residual;
   q.residual_per_inlier = eq.inliers > 0 ? step.residual / double(eq.inliers) : 0;
   q.residual_per_weight = eq.weight_sum > 0 ? step.residual / eq.weight_sum : 0;

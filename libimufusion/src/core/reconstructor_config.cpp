@@ -83,6 +83,7 @@ Status ReconstructorConfig::validate() const {
       {"relocalization.near_fit_condition_factor", r.near_fit_condition_factor},
       {"relocalization.rival_residual_ratio", r.rival_residual_ratio},
       {"relocalization.rival_inlier_ratio", r.rival_inlier_ratio},
+      {"relocalization.max_translation_condition", r.max_translation_condition},
       {"smoothing.partial_move_sigma", smoothing.partial_move_sigma},
       {"smoothing.retracked_frame_sigma", smoothing.retracked_frame_sigma},
       {"recovery.agreement_distance", recovery.agreement_distance}};

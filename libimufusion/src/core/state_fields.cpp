@@ -60,7 +60,8 @@ void describe(StateArchive& a, ImuAidConfig& x) {
 
 void describe(StateArchive& a, RelocalizationConfig& x) {
   a(x.enabled, x.interval, x.cell, x.candidates, x.drift_acceleration, x.max_radius,
-    x.near_fit_condition_factor, x.turn_step_deg, x.rival_residual_ratio, x.rival_inlier_ratio);
+    x.near_fit_condition_factor, x.turn_step_deg, x.rival_residual_ratio, x.rival_inlier_ratio,
+    x.max_translation_condition);
 }
 
 void describe(StateArchive& a, RecoveryConfig& x) {

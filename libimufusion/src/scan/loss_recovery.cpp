@@ -63,11 +63,20 @@ Result<std::size_t> LossRecovery::on_frame(const Frame& frame, const DepthView& 
   // Without the IMU the partial poses are the stretch's own estimate: the directions they hold
   // drift by the camera's whole motion, and a weakly constrained one may count as fixed, so the
   // recovery's correction spreads over every direction.
+  // A frame that fixed more than a wall's three directions (its distance and two tilts, which
+  // the wall measures) paired a few pixels off it while its position along the wall may still be
+  // dead reckoning's: its turn may be wrong, and the recovery undoes it there.
   if (decision.source == PoseSource::kIcpPartial && navigator != nullptr &&
-      (!frame.long_loss || smoothing_.partial_move_sigma > 0))
+      (!frame.long_loss || smoothing_.partial_move_sigma > 0)) {
+    constexpr int kPlaneDirections = 3;
+    const Eigen::Vector3d turned =
+        frame.directions > kPlaneDirections
+            ? log_so3(frame.T_world_camera.linear() * frame.T_world_seed.linear().transpose())
+            : Eigen::Vector3d::Zero();
     partial_.push_back({frame.index, frame.fixed,
                         frame.T_world_camera.translation() - frame.T_world_seed.translation(),
-                        frame.long_loss});
+                        turned, frame.long_loss});
+  }
   update_stretch(frame, depth, navigator);
   // The stretch ends at a recovery, or at a broken one: its recovering frames keep the poses ICP
   // placed them at, and the frames lost after them are dead-reckoned from there, so the stretch
@@ -135,10 +144,12 @@ void LossRecovery::restart_pending(const Frame& frame, Trajectory& trajectory) {
 // recovery completes or breaks.
 void LossRecovery::start_pending(const Frame& frame, const Trajectory& trajectory,
                                  InertialNavigator* navigator) {
-  // The correction is measured from where dead reckoning put the frame (a partial pose's
-  // rotation kept, as in the stretch): the frames before reach it by dead reckoning alone.
-  Eigen::Isometry3d T_world_dead = frame.T_world_estimate;
-  T_world_dead.translation() = frame.T_world_seed.translation();
+  // The correction is measured from where dead reckoning put the frame, its seed: the frames
+  // before reach it by dead reckoning and their own partial moves and turns. Without the IMU
+  // their turns are not recorded (the partial poses are the stretch's own estimate): a partial
+  // pose's rotation is kept.
+  Eigen::Isometry3d T_world_dead = frame.T_world_seed;
+  if (navigator == nullptr) T_world_dead.linear() = frame.T_world_estimate.linear();
   pending_ = PendingCorrection{{constrained_index_, frame.index, T_world_dead, frame.T_world_camera,
                                 constrained_prior_, partial_},
                                std::move(lost_depth_),
@@ -208,8 +219,10 @@ Result<LossRecovery::Retracked> LossRecovery::retrack(const PendingCorrection& c
     // Where dead reckoning put frame i before partial ICP moved it, if it did: the frames
     // before reach it by dead reckoning alone, so the correction left there is measured from it.
     Eigen::Isometry3d dead_reckoned = dead;
-    if (const PartialFrame* partial = find_partial(c.end.fixed, i))
+    if (const PartialFrame* partial = find_partial(c.end.fixed, i)) {
       dead_reckoned.translation() -= partial->moved;
+      dead_reckoned.linear() = exp_so3(-partial->turned) * dead.linear();
+    }
     const DepthView kept = it->second.view();
     IMUFUSION_RETURN_IF_ERROR(model.load_frame(kept, scratch));
     out.moved_reference = true;
@@ -280,6 +293,7 @@ std::vector<StretchFrame> LossRecovery::stretch_frames(const StretchEnd& c, cons
     f.R_world_camera = trajectory[i].T_world_camera.linear();
     if (const PartialFrame* fixed = find_partial(c.fixed, i)) {
       f.fixed = fixed->fixed;
+      f.turned = fixed->turned;
       if (fixed->measured) {
         f.moved = fixed->moved;
         f.moved_sigma = smoothing_.partial_move_sigma;
@@ -325,7 +339,7 @@ void LossRecovery::describe(StateArchive& archive) {
 }
 
 void LossRecovery::PartialFrame::describe(StateArchive& archive) {
-  archive(index, fixed, moved, measured);
+  archive(index, fixed, moved, turned, measured);
 }
 
 void LossRecovery::DepthCopy::describe(StateArchive& archive) {

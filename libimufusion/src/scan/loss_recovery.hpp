@@ -34,6 +34,7 @@ class LossRecovery {
     Eigen::Isometry3d T_world_estimate = Eigen::Isometry3d::Identity();
     Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();  // the pose it took
     Eigen::Matrix3d fixed = Eigen::Matrix3d::Zero();  // world translation directions ICP fixed
+    int directions = 0;  // the directions a partial ICP fixed (IcpQuality::constrained_directions)
   };
 
   LossRecovery() = default;
@@ -73,6 +74,9 @@ class LossRecovery {
     std::size_t index = 0;
     Eigen::Matrix3d fixed;  // world translation directions partial ICP fixed
     Eigen::Vector3d moved;  // the frame's move from its dead-reckoned seed (world)
+    // Its turn from the seed, R = Exp(turned) * R_seed (world, rad), where it fixed more than a
+    // plane's directions; zero on a wall, whose tilts the frame measures.
+    Eigen::Vector3d turned;
     bool measured = false;  // after a long loss: the move is a measurement, not exact
     void describe(StateArchive& archive);
   };

@@ -70,7 +70,9 @@ bool RelocalizationDriver::long_loss(const Frame& frame) const {
 
 // Whether this frame searches for its pose: every relocalization.interval lost frames, the
 // lost frame after a search whose best fit waits for confirmation or nearly constrained every
-// direction, and whenever ICP from the seed would end a long loss.
+// direction, with the gyroscope a lost frame whose view fixes more than a plane's three
+// directions (it is leaving a wall: a fit that fixes the position may be there), and whenever
+// ICP from the seed would end a long loss.
 bool RelocalizationDriver::should_search(const Frame& frame, bool long_loss) {
   if (!frame.lost) {
     lost_frames_since_attempt_ = 0;
@@ -79,7 +81,9 @@ bool RelocalizationDriver::should_search(const Frame& frame, bool long_loss) {
   }
   if (!config_.enabled || !(frame.rotation_from_imu || config_.turn_step_deg > 0)) return false;
   if (frame.icp_reliable) return long_loss;
-  const bool again = confirm_next_ || near_fit_;
+  constexpr int kPlaneDirections = 3;  // a plane fixes its distance and its two tilts
+  const bool again = confirm_next_ || near_fit_ ||
+                     (frame.rotation_from_imu && frame.partial_directions > kPlaneDirections);
   confirm_next_ = near_fit_ = false;
   if (++lost_frames_since_attempt_ < config_.interval && !again) return false;
   lost_frames_since_attempt_ = 0;
@@ -221,7 +225,7 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
     // ICP may slide a fit along a weak direction to where the camera cannot be: neither a place
     // nor a rival.
     if ((placed->T_world_camera.translation() - frame.lost_at).norm() > reachable) continue;
-    const IcpResult& icp = placed->icp;
+    IcpResult& icp = placed->icp;
     const Fit fit{placed->T_world_camera.translation(), icp.quality.residual_per_weight,
                   icp.quality.inlier_fraction};
     if (icp.quality.iterations > 0 && judge_icp(icp.quality, plausible, nullptr)) {
@@ -231,6 +235,12 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
       near_fit_ =
           near_fit_ || (!turning && icp.quality.condition > max_condition &&
                         icp.quality.condition <= config_.near_fit_condition_factor * max_condition);
+      // Started at the gyroscope's orientation, a fit that fixes the position places the frame.
+      if (!turning && !icp.reliable() && config_.max_translation_condition > 0 &&
+          icp.quality.translation_condition <= config_.max_translation_condition) {
+        icp.verdict = IcpVerdict::kReliable;
+        icp.reason.clear();
+      }
     }
     if (!icp.reliable() || !icp.quality.converged) continue;
     placed_at.push_back(fit);

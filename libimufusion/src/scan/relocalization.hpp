@@ -21,6 +21,7 @@ class RelocalizationDriver {
     bool lost = false;               // the scan was lost before this frame
     bool rotation_from_imu = false;  // the seed's rotation came from the gyroscope
     bool icp_reliable = false;       // ICP from the seed placed the frame in every direction
+    int partial_directions = 0;      // the directions a partial ICP from the seed fixed, else 0
     // Where the frame is without a search: its orientation is kept, its translation searched.
     Eigen::Isometry3d T_world_estimate = Eigen::Isometry3d::Identity();
     double constrained_time = 0;                        // s: the last fully constrained frame's
@@ -38,8 +39,9 @@ class RelocalizationDriver {
 
   /// Counts the lost frames and, where this one searches (every relocalization.interval lost
   /// frames, the next lost frame after a search whose best fit waits for confirmation or failed
-  /// only the condition number by at most relocalization.near_fit_condition_factor, and whenever
-  /// ICP from the seed would end a long loss), runs the search with
+  /// only the condition number by at most relocalization.near_fit_condition_factor, with the
+  /// gyroscope every lost frame whose partial ICP fixed more directions than a plane does, and
+  /// whenever ICP from the seed would end a long loss), runs the search with
   /// `model`'s current frame, `depth`. The search's raycasts and ICP add their kernels to
   /// `timings`, their wall time to relocalize_ms only.
   Result<Outcome> on_frame(const Frame& frame, const DepthView& depth, ModelAligner& model,
