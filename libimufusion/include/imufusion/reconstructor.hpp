@@ -98,8 +98,8 @@ struct RelocalizationConfig {
   double rival_inlier_ratio = 0.7;
   /// With the gyroscope, a fit that passes every test but the condition number places the frame
   /// when the condition of its translation alone (IcpQuality::translation_condition) is at most
-  /// this: a view leaving a wall fixes the position while kappa is still large along the
-  /// rotation about the wall's normal. 0: off. Default 100 (bench/README.md, "A fit that fixes
+  /// this: a view leaving a wall fixes the position while kappa is still large along a
+  /// rotation coupled with a translation. 0: off. Default 100 (bench/README.md, "A fit that fixes
   /// the position").
   double max_translation_condition = 100;
 };
