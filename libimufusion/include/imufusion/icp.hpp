@@ -151,6 +151,9 @@ struct IcpPhotometricConfig {
   double min_sigma = 0.02;
 };
 
+/// The directions point-to-plane ICP fixes on a plane: the distance to it and its two tilts.
+inline constexpr int kPlaneDirections = 3;
+
 struct IcpConfig {
   /// Gauss-Newton iterations allowed per pyramid level, coarsest last (level 0 = full size).
   std::vector<int> iterations_per_level = {10, 5, 4};
@@ -182,7 +185,7 @@ struct IcpConfig {
   bool keep_seed_in_degenerate_directions = false;
   /// With keep_seed_in_degenerate_directions: the fewest directions the depth must constrain
   /// for a partial result (a plane constrains three).
-  int min_constrained_directions = 3;
+  int min_constrained_directions = kPlaneDirections;
   /// With keep_seed_in_degenerate_directions: a partial result's inlier and pixel fractions need
   /// reach only this, where it is below reliability's (a lost frame's view past the model's
   /// surface); 0 (default): reliability's.

@@ -68,7 +68,6 @@ Result<std::size_t> LossRecovery::on_frame(const Frame& frame, const DepthView& 
   // dead reckoning's: its turn may be wrong, and the recovery undoes it there.
   if (decision.source == PoseSource::kIcpPartial && navigator != nullptr &&
       (!frame.long_loss || smoothing_.partial_move_sigma > 0)) {
-    constexpr int kPlaneDirections = 3;
     const Eigen::Vector3d turned =
         frame.directions > kPlaneDirections
             ? log_so3(frame.T_world_camera.linear() * frame.T_world_seed.linear().transpose())

@@ -81,7 +81,6 @@ bool RelocalizationDriver::should_search(const Frame& frame, bool long_loss) {
   }
   if (!config_.enabled || !(frame.rotation_from_imu || config_.turn_step_deg > 0)) return false;
   if (frame.icp_reliable) return long_loss;
-  constexpr int kPlaneDirections = 3;  // a plane fixes its distance and its two tilts
   const bool again = confirm_next_ || near_fit_ ||
                      (frame.rotation_from_imu && frame.partial_directions > kPlaneDirections);
   confirm_next_ = near_fit_ = false;
