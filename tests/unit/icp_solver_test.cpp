@@ -383,6 +383,7 @@ TEST(IcpCpu, AFlatWallSolvedDegeneracyAwareKeepsTheSeedAlongTheWall) {
   EXPECT_FALSE(result->reliable());
   EXPECT_TRUE(result->partial()) << result->reason;
   EXPECT_EQ(result->quality.constrained_directions, 3);
+  EXPECT_EQ(result->partial_directions(), 3);
   // The one translation it fixed is the distance to the wall (the reference's z).
   Eigen::Matrix3d normal_only = Eigen::Matrix3d::Zero();
   normal_only(2, 2) = 1.0;
@@ -396,6 +397,7 @@ TEST(IcpCpu, AFlatWallSolvedDegeneracyAwareKeepsTheSeedAlongTheWall) {
   ASSERT_TRUE(plain.ok());
   EXPECT_FALSE(plain->partial());
   EXPECT_FALSE(plain->reliable());
+  EXPECT_EQ(plain->partial_directions(), 0);
 }
 
 TEST(IcpCpu, DegeneracyAwareSolvingLeavesAWellConstrainedAlignmentUnchanged) {

@@ -278,6 +278,8 @@ struct IcpResult {
   IcpVerdict verdict = IcpVerdict::kUnreliable;
   bool reliable() const { return verdict == IcpVerdict::kReliable; }
   bool partial() const { return verdict == IcpVerdict::kPartial; }
+  /// The directions a partial result fixed; 0 unless partial.
+  int partial_directions() const { return partial() ? quality.constrained_directions : 0; }
   /// For a partial result, the translation directions ICP fixed (a projector in the reference
   /// camera frame, see IcpStep::fixed_translation); identity for a full solve.
   Eigen::Matrix3d fixed_translation = Eigen::Matrix3d::Identity();

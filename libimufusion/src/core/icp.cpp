@@ -396,6 +396,9 @@ struct LastStep {
   double scale = 0;    // its information scale (depth_information_scale)
   Eigen::Matrix3d fixed = Eigen::Matrix3d::Zero();  // the last step's fixed translation directions
   int finest_run = 0;                               // the finest level that ran a step
+  /// The last step's AtA, any level (NaN until a step ran): its translation condition.
+  Eigen::Matrix<double, 6, 6> AtA =
+      Eigen::Matrix<double, 6, 6>::Constant(std::numeric_limits<double>::quiet_NaN());
 };
 
 // kappa of the translation block of the depth's AtA (inf when singular or not finite).
@@ -416,7 +419,6 @@ void record_step(IcpQuality& q, const NormalEquations& eq, const IcpStep& step) 
   q.covered_inlier_fraction = eq.covered_inlier_fraction();
   q.pixel_fraction = eq.pixel_fraction();
   q.condition = step.condition;
-  q.translation_condition = translation_condition(eq.AtA);
   q.residual = step.residual;
   q.residual_per_inlier = eq.inliers > 0 ? step.residual / double(eq.inliers) : 0;
   q.residual_per_weight = eq.weight_sum > 0 ? step.residual / eq.weight_sum : 0;
@@ -510,6 +512,7 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
         }
       }
       record_step(result.quality, *eq, step);
+      last.AtA = eq->AtA;
       last.fixed = step.fixed_translation;
       if (seed_gate) last.step = step;
       ++total;
@@ -537,6 +540,7 @@ Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
   result.quality.iterations = total;
   result.quality.coarse_iterations = coarse;
   result.T_ref_cur = T;
+  result.quality.translation_condition = translation_condition(last.AtA);
   if (!any_step) {
     result.quality.converged = false;
     result.reason =

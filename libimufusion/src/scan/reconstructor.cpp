@@ -263,7 +263,7 @@ Result<LossRecovery::Frame> Reconstructor::Impl::track_frame(double timestamp,
       .lost = f.was_lost,
       .rotation_from_imu = r.imu.rotation_from_imu,
       .icp_reliable = icp->reliable(),
-      .partial_directions = icp->partial() ? icp->quality.constrained_directions : 0,
+      .partial_directions = icp->partial_directions(),
       .T_world_estimate = f.T_world_estimate,
       .constrained_time = recovery.constrained_time(),
       .lost_at = trajectory[recovery.constrained_index()].T_world_camera.translation()};
@@ -297,7 +297,7 @@ Result<LossRecovery::Frame> Reconstructor::Impl::track_frame(double timestamp,
                          ? T_world_icp
                          : f.T_world_seed;
   f.fixed.noalias() = R_world_reference * icp->fixed_translation * R_world_reference.transpose();
-  f.directions = icp->partial() ? icp->quality.constrained_directions : 0;
+  f.directions = icp->partial_directions();
   note_decision(f.decision, *icp, f.was_lost, previous, noise_variance(depth), r);
   return f;
 }
