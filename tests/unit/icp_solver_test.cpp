@@ -366,6 +366,29 @@ TEST(IcpCpu, TheTranslationConditionTellsAWallFromAViewThatFixesThePosition) {
   EXPECT_GE(in_room->quality.translation_condition, 1);
 }
 
+TEST(IcpQuality, APositionIsFixedWhenAllButTheConditionPassAndTheTranslationIsConditioned) {
+  IcpQuality q;
+  q.iterations = 4;
+  q.inliers = 5000;
+  q.inlier_fraction = q.pixel_fraction = 0.8;
+  q.residual_per_weight = 1e-6;
+  q.condition = 1e4;  // fails the condition number (562.3)
+  q.translation_condition = 20;
+  const IcpReliabilityThresholds t;
+  EXPECT_FALSE(judge_icp(q, t, nullptr));
+  EXPECT_TRUE(fixes_position(q, t, 100));
+  EXPECT_FALSE(fixes_position(q, t, 0));  // off
+  IcpQuality sliding = q;
+  sliding.translation_condition = 150;
+  EXPECT_FALSE(fixes_position(sliding, t, 100));
+  IcpQuality unpaired = q;
+  unpaired.inlier_fraction = 0.3;  // fails a test beside the condition
+  EXPECT_FALSE(fixes_position(unpaired, t, 100));
+  IcpQuality not_run = q;
+  not_run.iterations = 0;
+  EXPECT_FALSE(fixes_position(not_run, t, 100));
+}
+
 TEST(IcpCpu, AFlatWallSolvedDegeneracyAwareKeepsTheSeedAlongTheWall) {
   // The wall constrains its normal translation and the two tilts; the in-plane translations and
   // the rotation about the normal come from the seed (the IMU's prediction in the scanner). A

@@ -44,12 +44,21 @@ class ScriptedModel : public ModelAligner {
   double ill_translation_condition = std::numeric_limits<double>::infinity();
   Eigen::Isometry3d estimate;  // the frame's estimate
   int searches = 0;            // searches started (frame_points calls)
+  double lift = 0;             // m: the frame's points this far above the floor at the estimate
+  /// Only ICP started within 1 cm of the estimate settles, at fits[0] (the others find no fit).
+  bool fit_only_from_estimate = false;
+  std::vector<Eigen::Vector3d> seeds;  // where each ICP started
 
   Status load_frame(const DepthView&, FrameTimings&) override { return {}; }
   Status set_reference(const Eigen::Isometry3d&, FrameTimings&) override { return {}; }
-  Result<Placement> place(const DepthView&, const Eigen::Isometry3d&, FrameTimings&) override {
-    const ScriptedFit scripted = next_ < fits.size() ? fits[next_] : ScriptedFit{};
+  Result<Placement> place(const DepthView&, const Eigen::Isometry3d& seed, FrameTimings&) override {
+    seeds.push_back(seed.translation());
+    ScriptedFit scripted = next_ < fits.size() ? fits[next_] : ScriptedFit{};
     ++next_;
+    if (fit_only_from_estimate)
+      scripted = (seed.translation() - estimate.translation()).norm() < 0.01 && !fits.empty()
+                     ? fits.front()
+                     : ScriptedFit{};
     Placement p;
     p.T_world_camera = estimate;
     p.T_world_camera.translation() += scripted.offset;
@@ -73,7 +82,7 @@ class ScriptedModel : public ModelAligner {
     next_ = 0;
     std::vector<Eigen::Vector3d> points;
     for (int i = -5; i <= 5; ++i)
-      for (int j = -5; j <= 5; ++j) points.emplace_back(0.1 * i, 0.1 * j, 2.0);
+      for (int j = -5; j <= 5; ++j) points.emplace_back(0.1 * i, 0.1 * j, 2.0 - lift);
     return points;
   }
   Result<HostVolume> model_snapshot() const override { return volume_; }
@@ -319,6 +328,32 @@ TEST_F(RelocalizationDriverTest, AViewThatFixesMoreThanAPlaneSearchesAtEveryLost
   EXPECT_EQ(model.searches, 3);
   EXPECT_FALSE(lost_frame(12));  // five lost frames after the last search
   EXPECT_EQ(model.searches, 4);
+}
+
+TEST_F(RelocalizationDriverTest, WithTheGyroTheSearchStartsICPAtTheEstimateItself) {
+  // The frame's points lie 15 cm (3 cells) off the floor at the estimate: the distance field's
+  // candidates are all away from it, while ICP from the estimate settles (the field's coarse
+  // grid missed the place).
+  model.lift = 0.15;
+  model.fit_only_from_estimate = true;
+  model.fits = {{Fit::kReliable, correction}};
+  for (int k = 1; k <= 4; ++k) EXPECT_FALSE(lost_frame(k));
+  EXPECT_TRUE(placed_at_correction(lost_frame(5), 5));
+  ASSERT_FALSE(model.seeds.empty());
+  EXPECT_LT((model.seeds.front() - Eigen::Vector3d(0.05, 0, 0)).norm(), 1e-9);
+  EXPECT_GT(model.seeds.size(), 1u);  // the field's candidates too
+}
+
+TEST_F(RelocalizationDriverTest, AFitThatFixesEveryDirectionIsPreferredToOnePlacedByItsPosition) {
+  // A fit elsewhere passes only by its translation's condition (kappa 1e4, translation 20) and
+  // explains the view with a lower residual; the fit at the correction fixes every direction.
+  // The best is the latter: the other is its rival, and the next view, where the rival slid
+  // on, confirms it.
+  model.ill_translation_condition = 20;
+  model.fits = {{Fit::kIllConditioned, elsewhere, 0.5e-6}, {Fit::kReliable, correction, 1e-6}};
+  for (int k = 1; k <= 5; ++k) EXPECT_FALSE(lost_frame(k));
+  model.fits = {{Fit::kIllConditioned, slid, 0.5e-6}, {Fit::kReliable, correction, 1e-6}};
+  EXPECT_TRUE(placed_at_correction(lost_frame(6), 6));
 }
 
 // A box room, 2.4 x 1.6 x 1.2 m (z up), and a camera in it that turned and moved while the scan

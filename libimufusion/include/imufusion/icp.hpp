@@ -322,6 +322,13 @@ IcpStep solve_icp_step(const NormalEquations& eq, double max_condition = 0);
 /// orthonormal), translation (tx, ty, tz).
 Eigen::Isometry3d icp_increment(const Eigen::Matrix<double, 6, 1>& x);
 
+/// With the orientation known (the gyroscope's): whether an alignment fixes the position. It ran,
+/// passes every test of `thresholds` but the condition number, and the condition of its
+/// translation alone (IcpQuality::translation_condition) is at most `max_translation_condition`
+/// (0: never).
+bool fixes_position(const IcpQuality& quality, IcpReliabilityThresholds thresholds,
+                    double max_translation_condition);
+
 /// The reliable / unreliable decision on a quality; the reason when unreliable.
 bool judge_icp(const IcpQuality& quality, const IcpReliabilityThresholds& thresholds,
                std::string* reason);

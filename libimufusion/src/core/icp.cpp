@@ -465,6 +465,14 @@ void judge_result(IcpResult& result, const IcpConfig& config, const LastStep& la
 
 }  // namespace
 
+bool fixes_position(const IcpQuality& quality, IcpReliabilityThresholds thresholds,
+                    double max_translation_condition) {
+  if (!(max_translation_condition > 0) || quality.iterations == 0) return false;
+  thresholds.max_condition = std::numeric_limits<double>::infinity();
+  return quality.translation_condition <= max_translation_condition &&
+         judge_icp(quality, thresholds, nullptr);
+}
+
 Result<IcpResult> run_icp(NormalEquationSource& source, const IcpConfig& config,
                           const Eigen::Isometry3d& T_ref_cur_init) {
   const int levels = source.levels();

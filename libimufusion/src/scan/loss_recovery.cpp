@@ -16,7 +16,8 @@ namespace imufusion {
 LossRecovery::LossRecovery(const ReconstructorConfig& config)
     : smoothing_(config.smoothing),
       recovery_(config.recovery),
-      gyro_noise_density_(config.inertial.gyro_noise_density) {}
+      gyro_noise_density_(config.inertial.gyro_noise_density),
+      max_translation_condition_(config.relocalization.max_translation_condition) {}
 
 void LossRecovery::reset() {
   constrained_time_ = 0;
@@ -227,6 +228,11 @@ Result<LossRecovery::Retracked> LossRecovery::retrack(const PendingCorrection& c
     out.moved_reference = true;
     auto placed = model.place(kept, seed, scratch);
     if (!placed) return placed.error();
+    // With the gyroscope, a frame placed where the relocalization search would place it: one
+    // whose position is fixed while a rotation is not (the view leaves a wall) counts.
+    if (c.inertial && !placed->icp.reliable() &&
+        fixes_position(placed->icp.quality, model.reliability(kept), max_translation_condition_))
+      placed->icp.verdict = IcpVerdict::kReliable;
     if (!placed->icp.reliable() || !placed->icp.quality.converged) break;
     // Without the IMU the seed is the next frame's pose unmoved: one that settled farther from
     // it than a recovering frame may (recovery.agreement_distance) slid onto another stretch of

@@ -134,7 +134,8 @@ class LossRecovery {
 
   LossSmoothingConfig smoothing_;
   RecoveryConfig recovery_;
-  double gyro_noise_density_ = 0;  // rad/s/sqrt(Hz): InertialConfig::gyro_noise_density
+  double gyro_noise_density_ = 0;         // rad/s/sqrt(Hz): InertialConfig::gyro_noise_density
+  double max_translation_condition_ = 0;  // RelocalizationConfig::max_translation_condition
 
   double constrained_time_ = 0;        // s
   std::size_t constrained_index_ = 0;  // in the trajectory

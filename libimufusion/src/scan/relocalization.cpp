@@ -204,6 +204,14 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
           field_.search(points, T_estimate.linear(), frame.lost_at, radius, config_.candidates),
           config_.candidates, 2 * config_.cell);
     }
+    // The estimate itself, unless a candidate is within a cell of it: where the gyro and the
+    // partial frames put the camera is the likeliest place, and the field's coarse grid may miss
+    // it.
+    if (std::none_of(found.begin(), found.end(), [&](const TranslationCandidate& c) {
+          return (c.translation - T_estimate.translation()).norm() <= config_.cell;
+        }))
+      candidates.push_back(
+          {T_estimate.linear(), {.translation = T_estimate.translation(), .near_fraction = 1}});
     for (const TranslationCandidate& c : found) candidates.push_back({T_estimate.linear(), c});
   }
   std::optional<ModelAligner::Placement> best;
@@ -212,6 +220,7 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
   plausible.max_condition = std::numeric_limits<double>::infinity();
   std::vector<Fit> fits;           // where the frame fits but for the condition number
   std::vector<Fit> placed_at;      // where it fits in every direction (reliable)
+  bool best_full = false;          // the best fit is within the condition number's limit
   FrameTimings candidate_timings;  // kept out of the frame's ICP and raycast times
   for (const auto& [R_candidate, c] : candidates) {
     if (c.near_fraction < plausible.min_inlier_fraction) continue;
@@ -235,16 +244,23 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
           near_fit_ || (!turning && icp.quality.condition > max_condition &&
                         icp.quality.condition <= config_.near_fit_condition_factor * max_condition);
       // Started at the gyroscope's orientation, a fit that fixes the position places the frame.
-      if (!turning && !icp.reliable() && config_.max_translation_condition > 0 &&
-          icp.quality.translation_condition <= config_.max_translation_condition) {
+      if (!turning && !icp.reliable() &&
+          fixes_position(icp.quality, plausible, config_.max_translation_condition)) {
         icp.verdict = IcpVerdict::kReliable;
         icp.reason.clear();
       }
     }
     if (!icp.reliable() || !icp.quality.converged) continue;
     placed_at.push_back(fit);
-    if (!best || icp.quality.residual_per_weight < best->icp.quality.residual_per_weight)
+    // The best fit: one that fixes every direction before one placed by its translation alone,
+    // then the lowest residual per weight.
+    const bool full = icp.quality.condition <= max_condition;
+    if (!best || (full && !best_full) ||
+        (full == best_full &&
+         icp.quality.residual_per_weight < best->icp.quality.residual_per_weight)) {
       best = std::move(*placed);
+      best_full = full;
+    }
   }
   const double apart = 2 * config_.cell;
   // A fit elsewhere that explains the frame about as well as the best one: its residual per
