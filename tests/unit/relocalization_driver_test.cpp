@@ -45,8 +45,9 @@ class ScriptedModel : public ModelAligner {
   Eigen::Isometry3d estimate;  // the frame's estimate
   int searches = 0;            // searches started (frame_points calls)
   double lift = 0;             // m: the frame's points this far above the floor at the estimate
-  /// Only ICP started within 1 cm of the estimate settles, at fits[0] (the others find no fit).
-  bool fit_only_from_estimate = false;
+  /// Only ICP started within 1 cm of the estimate moved by this (world, m) settles, at fits[0]
+  /// (the others find no fit); unset: each candidate in turn takes the next fit.
+  std::optional<Eigen::Vector3d> fit_only_from;
   std::vector<Eigen::Vector3d> seeds;  // where each ICP started
 
   Status load_frame(const DepthView&, FrameTimings&) override { return {}; }
@@ -55,8 +56,9 @@ class ScriptedModel : public ModelAligner {
     seeds.push_back(seed.translation());
     ScriptedFit scripted = next_ < fits.size() ? fits[next_] : ScriptedFit{};
     ++next_;
-    if (fit_only_from_estimate)
-      scripted = (seed.translation() - estimate.translation()).norm() < 0.01 && !fits.empty()
+    if (fit_only_from)
+      scripted = (seed.translation() - estimate.translation() - *fit_only_from).norm() < 0.01 &&
+                         !fits.empty()
                      ? fits.front()
                      : ScriptedFit{};
     Placement p;
@@ -335,13 +337,24 @@ TEST_F(RelocalizationDriverTest, WithTheGyroTheSearchStartsICPAtTheEstimateItsel
   // candidates are all away from it, while ICP from the estimate settles (the field's coarse
   // grid missed the place).
   model.lift = 0.15;
-  model.fit_only_from_estimate = true;
+  model.fit_only_from = Eigen::Vector3d::Zero();
   model.fits = {{Fit::kReliable, correction}};
   for (int k = 1; k <= 4; ++k) EXPECT_FALSE(lost_frame(k));
   EXPECT_TRUE(placed_at_correction(lost_frame(5), 5));
   ASSERT_FALSE(model.seeds.empty());
   EXPECT_LT((model.seeds.front() - Eigen::Vector3d(0.05, 0, 0)).norm(), 1e-9);
   EXPECT_GT(model.seeds.size(), 1u);  // the field's candidates too
+}
+
+TEST_F(RelocalizationDriverTest, TheConfirmingSearchStartsICPWhereTheLastSearchFoundTheFrame) {
+  // An ambiguous fit at the correction; in the next view, only ICP started at the estimate moved
+  // by that correction settles there (the field's candidates all lie 15 cm off it).
+  model.lift = 0.15;
+  model.fits = {{Fit::kReliable, correction}, {Fit::kIllConditioned, elsewhere}};
+  for (int k = 1; k <= 5; ++k) EXPECT_FALSE(lost_frame(k));
+  model.fit_only_from = correction;
+  model.fits = {{Fit::kReliable, correction}};
+  EXPECT_TRUE(placed_at_correction(lost_frame(6), 6));
 }
 
 TEST_F(RelocalizationDriverTest, AFitThatFixesEveryDirectionIsPreferredToOnePlacedByItsPosition) {

@@ -204,14 +204,19 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
           field_.search(points, T_estimate.linear(), frame.lost_at, radius, config_.candidates),
           config_.candidates, 2 * config_.cell);
     }
-    // The estimate itself, unless a candidate is within a cell of it: where the gyro and the
-    // partial frames put the camera is the likeliest place, and the field's coarse grid may miss
-    // it.
-    if (std::none_of(found.begin(), found.end(), [&](const TranslationCandidate& c) {
-          return (c.translation - T_estimate.translation()).norm() <= config_.cell;
-        }))
-      candidates.push_back(
-          {T_estimate.linear(), {.translation = T_estimate.translation(), .near_fraction = 1}});
+    // The estimate itself and, while a fit waits for confirmation, the estimate at that fit's
+    // correction, each unless a candidate is within a cell of it: where the gyro and the
+    // partial frames put the camera, and where the last search found it, are the likeliest
+    // places, and the field's coarse grid may miss them.
+    std::vector<Eigen::Vector3d> starts{T_estimate.translation()};
+    if (unconfirmed_correction_)
+      starts.push_back(T_estimate.translation() + *unconfirmed_correction_);
+    for (const Eigen::Vector3d& start : starts) {
+      if (std::none_of(found.begin(), found.end(), [&](const TranslationCandidate& c) {
+            return (c.translation - start).norm() <= config_.cell;
+          }))
+        candidates.push_back({T_estimate.linear(), {.translation = start, .near_fraction = 1}});
+    }
     for (const TranslationCandidate& c : found) candidates.push_back({T_estimate.linear(), c});
   }
   std::optional<ModelAligner::Placement> best;
