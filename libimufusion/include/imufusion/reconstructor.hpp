@@ -64,9 +64,10 @@ struct ImuAidConfig {
 
 /// The search for a lost frame's pose in the model, at the gyro's rotation (IMU runs only): a
 /// distance field of the model over translations within a radius of dead reckoning's position
-/// and of the last fully constrained one, then full ICP from the best fits. An ambiguous view
-/// (another fit elsewhere) takes nothing until the next lost frame's search puts the camera at
-/// the same correction of dead reckoning, with no reliable fit elsewhere repeated.
+/// and of the last fully constrained one, then full ICP from the best fits and from the estimate
+/// itself (and, while a fit waits for confirmation, from the estimate at its correction). An
+/// ambiguous view (another fit elsewhere) takes nothing until the next lost frame's search puts
+/// the camera at the same correction of dead reckoning, with no reliable fit elsewhere repeated.
 struct RelocalizationConfig {
   bool enabled = true;
   int interval = 5;    // lost frames between searches
@@ -99,8 +100,8 @@ struct RelocalizationConfig {
   /// With the gyroscope, a fit that passes every test but the condition number places the frame
   /// when the condition of its translation alone (IcpQuality::translation_condition) is at most
   /// this: a view leaving a wall fixes the position while kappa is still large along a
-  /// rotation coupled with a translation. 0: off. Default 100 (bench/README.md, "A fit that fixes
-  /// the position").
+  /// rotation coupled with a translation. The retrack after a recovery places a frame by the same
+  /// rule. 0: off. Default 100 (bench/README.md, "A fit that fixes the position").
   double max_translation_condition = 100;
 };
 
