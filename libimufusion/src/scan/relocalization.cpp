@@ -225,7 +225,6 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
   plausible.max_condition = std::numeric_limits<double>::infinity();
   std::vector<Fit> fits;           // where the frame fits but for the condition number
   std::vector<Fit> placed_at;      // where it fits in every direction (reliable)
-  bool best_full = false;          // the best fit is within the condition number's limit
   FrameTimings candidate_timings;  // kept out of the frame's ICP and raycast times
   for (const auto& [R_candidate, c] : candidates) {
     if (c.near_fraction < plausible.min_inlier_fraction) continue;
@@ -260,12 +259,11 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
     // The best fit: one that fixes every direction before one placed by its translation alone,
     // then the lowest residual per weight.
     const bool full = icp.quality.condition <= max_condition;
+    const bool best_full = best && best->icp.quality.condition <= max_condition;
     if (!best || (full && !best_full) ||
         (full == best_full &&
-         icp.quality.residual_per_weight < best->icp.quality.residual_per_weight)) {
+         icp.quality.residual_per_weight < best->icp.quality.residual_per_weight))
       best = std::move(*placed);
-      best_full = full;
-    }
   }
   const double apart = 2 * config_.cell;
   // A fit elsewhere that explains the frame about as well as the best one: its residual per
