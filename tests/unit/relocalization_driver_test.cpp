@@ -132,6 +132,9 @@ class RelocalizationDriverTest : public ::testing::Test {
   const Eigen::Vector3d correction{0.2, -0.1, 0};  // where the camera is, from its estimate
   const Eigen::Vector3d elsewhere{-0.3, 0.4, 0};   // another fit, more than 2 cells away
   const Eigen::Vector3d slid{0.0, 0.4, 0};         // that fit in the next view, 0.3 m on
+  // An ill-conditioned fit's translation kappa where it is a rival: its position fixed (within
+  // relocalization.max_translation_condition, 100), as where a wall meets the floor.
+  static constexpr double kRivalTranslationCondition = 20;
 };
 
 TEST_F(RelocalizationDriverTest, AnUnambiguousFitEndsTheLossAtOnce) {
@@ -142,6 +145,7 @@ TEST_F(RelocalizationDriverTest, AnUnambiguousFitEndsTheLossAtOnce) {
 }
 
 TEST_F(RelocalizationDriverTest, AnAmbiguousFitWaitsForTheNextFrameToConfirmIt) {
+  model.ill_translation_condition = kRivalTranslationCondition;
   model.fits = {{Fit::kReliable, correction}, {Fit::kIllConditioned, elsewhere}};
   for (int k = 1; k <= 5; ++k) EXPECT_FALSE(lost_frame(k));
   EXPECT_EQ(model.searches, 1);
@@ -153,6 +157,7 @@ TEST_F(RelocalizationDriverTest, AnAmbiguousFitWaitsForTheNextFrameToConfirmIt) 
 }
 
 TEST_F(RelocalizationDriverTest, AnAmbiguousFitAtAnotherCorrectionIsNotAccepted) {
+  model.ill_translation_condition = kRivalTranslationCondition;
   model.fits = {{Fit::kReliable, correction}, {Fit::kIllConditioned, elsewhere}};
   for (int k = 1; k <= 5; ++k) EXPECT_FALSE(lost_frame(k));
   // The confirming search's best fit lies 0.3 m from the first one's correction: neither ends
@@ -176,12 +181,18 @@ TEST_F(RelocalizationDriverTest, AReliableFitThatRepeatsElsewhereKeepsTheViewAmb
   EXPECT_EQ(model.searches, 6);  // frames 5 and 6 (its confirmation), then every fifth
 }
 
-TEST_F(RelocalizationDriverTest, AnIllConditionedFitThatStaysPutDoesNotBlockTheConfirmation) {
-  // A slide's fit stays near where the search started it, in every view: no evidence against
-  // the best fit, which the next frame confirms.
-  model.fits = {{Fit::kReliable, correction}, {Fit::kIllConditioned, elsewhere}};
+TEST_F(RelocalizationDriverTest, AFitElsewhereWhoseTranslationSlidesIsNoRival) {
+  // The view is mostly wall: the fit elsewhere pairs it with half the best fit's residual and
+  // as much of the view, but its translation slides (kappa 1e4, translation kappa infinite): it
+  // stopped where the search started it, and the best fit, which also pairs what fixes the
+  // slide, is taken at once.
+  model.fits = {{Fit::kReliable, correction, 1e-6}, {Fit::kIllConditioned, elsewhere, 0.5e-6}};
+  for (int k = 1; k <= 4; ++k) EXPECT_FALSE(lost_frame(k));
+  EXPECT_TRUE(placed_at_correction(lost_frame(5), 5));
+  // The same fit with its position fixed is a place for the frame too: a rival.
+  driver = RelocalizationDriver(config);
+  model.ill_translation_condition = kRivalTranslationCondition;
   for (int k = 1; k <= 5; ++k) EXPECT_FALSE(lost_frame(k));
-  EXPECT_TRUE(lost_frame(6));
 }
 
 TEST_F(RelocalizationDriverTest, AFitElsewhereThatExplainsTheFrameWorseIsNoRival) {
@@ -189,6 +200,7 @@ TEST_F(RelocalizationDriverTest, AFitElsewhereThatExplainsTheFrameWorseIsNoRival
   // relocalization.rival_residual_ratio times the best fit's: the best one is taken at once.
   const double ratio = config.relocalization.rival_residual_ratio;
   ASSERT_GT(ratio, 1);
+  model.ill_translation_condition = kRivalTranslationCondition;
   model.fits = {{Fit::kReliable, correction, 1e-6},
                 {Fit::kIllConditioned, elsewhere, 2 * ratio * 1e-6}};
   for (int k = 1; k <= 4; ++k) EXPECT_FALSE(lost_frame(k));
@@ -198,6 +210,7 @@ TEST_F(RelocalizationDriverTest, AFitElsewhereThatExplainsTheFrameWorseIsNoRival
 TEST_F(RelocalizationDriverTest, AFitElsewhereWithinTheRatioKeepsTheViewAmbiguous) {
   // The same fit elsewhere, its mean square residual half the ratio times the best's: a rival.
   const double ratio = config.relocalization.rival_residual_ratio;
+  model.ill_translation_condition = kRivalTranslationCondition;
   model.fits = {{Fit::kReliable, correction, 1e-6},
                 {Fit::kIllConditioned, elsewhere, 0.5 * ratio * 1e-6}};
   for (int k = 1; k <= 5; ++k) EXPECT_FALSE(lost_frame(k));
@@ -244,6 +257,7 @@ TEST_F(RelocalizationDriverTest, AFitWhereTheCameraCannotBeIsNeitherAPlaceNorARi
 }
 
 TEST_F(RelocalizationDriverTest, AFrameThatIsNotLostForgetsTheCorrectionWaitingForConfirmation) {
+  model.ill_translation_condition = kRivalTranslationCondition;
   model.fits = {{Fit::kReliable, correction}, {Fit::kIllConditioned, elsewhere}};
   for (int k = 1; k <= 5; ++k) EXPECT_FALSE(lost_frame(k));
   RelocalizationDriver::Frame tracked;
@@ -350,6 +364,7 @@ TEST_F(RelocalizationDriverTest, TheConfirmingSearchStartsICPWhereTheLastSearchF
   // An ambiguous fit at the correction; in the next view, only ICP started at the estimate moved
   // by that correction settles there (the field's candidates all lie 15 cm off it).
   model.lift = 0.15;
+  model.ill_translation_condition = kRivalTranslationCondition;
   model.fits = {{Fit::kReliable, correction}, {Fit::kIllConditioned, elsewhere}};
   for (int k = 1; k <= 5; ++k) EXPECT_FALSE(lost_frame(k));
   model.fit_only_from = correction;

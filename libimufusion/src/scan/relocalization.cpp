@@ -238,9 +238,12 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
     // nor a rival.
     if ((placed->T_world_camera.translation() - frame.lost_at).norm() > reachable) continue;
     IcpResult& icp = placed->icp;
-    const Fit fit{placed->T_world_camera.translation(), icp.quality.residual_per_weight,
-                  icp.quality.inlier_fraction};
+    Fit fit{placed->T_world_camera.translation(), icp.quality.residual_per_weight,
+            icp.quality.inlier_fraction};
     if (icp.quality.iterations > 0 && judge_icp(icp.quality, plausible, nullptr)) {
+      const bool position_fixed =
+          !turning && fixes_position(icp.quality, plausible, config_.max_translation_condition);
+      fit.places = !turning && (icp.quality.condition <= max_condition || position_fixed);
       fits.push_back(fit);
       // A fit that only the condition number fails, narrowly: the next frame searches again
       // (at the gyro's orientation; a sweep over orientations finds such fits anywhere).
@@ -248,8 +251,7 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
           near_fit_ || (!turning && icp.quality.condition > max_condition &&
                         icp.quality.condition <= config_.near_fit_condition_factor * max_condition);
       // Started at the gyroscope's orientation, a fit that fixes the position places the frame.
-      if (!turning && !icp.reliable() &&
-          fixes_position(icp.quality, plausible, config_.max_translation_condition)) {
+      if (!icp.reliable() && position_fixed) {
         icp.verdict = IcpVerdict::kReliable;
         icp.reason.clear();
       }
@@ -270,10 +272,14 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
   // weight within relocalization.rival_residual_ratio of the best's (0: any fit elsewhere), and
   // its inlier fraction at least relocalization.rival_inlier_ratio of the best's. Where the
   // noise, not the place, sets the residual, a fit of part of the view (a wall that pairs
-  // elsewhere) has the best's residual but pairs less of the view.
+  // elsewhere) has the best's residual but pairs less of the view. With the gyroscope a rival
+  // must be a place for the frame too (every direction fixed, or its position): a fit whose
+  // translation slides (a view that is mostly wall) stops wherever along the slide the search
+  // started it, and pairs the wall there with a lower residual than the fit that also pairs what
+  // fixes the slide.
   const auto rival = [&](const Fit& f) {
     const IcpQuality& b = best->icp.quality;
-    return (f.at - best->T_world_camera.translation()).norm() > apart &&
+    return (turning || f.places) && (f.at - best->T_world_camera.translation()).norm() > apart &&
            (config_.rival_residual_ratio <= 0 ||
             f.residual_per_weight <= config_.rival_residual_ratio * b.residual_per_weight) &&
            f.inlier_fraction >= config_.rival_inlier_ratio * b.inlier_fraction;

@@ -60,6 +60,9 @@ class RelocalizationDriver {
     Eigen::Vector3d at;
     double residual_per_weight = 0;
     double inlier_fraction = 0;  // IcpQuality::inlier_fraction
+    // With the gyroscope: it would place the frame, its kappa within the limit or its position
+    // fixed (fixes_position).
+    bool places = false;
   };
   // A place the search proposes: the frame's orientation there and its translation.
   struct Oriented {
