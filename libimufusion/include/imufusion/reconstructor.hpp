@@ -88,9 +88,10 @@ struct RelocalizationConfig {
   /// lost (and within inertial.max_speed times the time since, which bounds every search's
   /// fits). 0: no search without the gyroscope. Default 15.
   double turn_step_deg = 15;
-  /// A fit elsewhere (ICP from another candidate, reliable but for the condition number) makes
-  /// the view ambiguous only when its residual per weight is within this factor of the best
-  /// fit's; 0: any fit elsewhere. Default 4: an RMS residual twice the best's (bench/README.md,
+  /// A fit elsewhere (ICP from another candidate, reliable but for the condition number; with
+  /// the gyroscope, one that fixes every direction or its position) makes the view ambiguous
+  /// only when its residual per weight is within this factor of the best fit's; 0: any fit
+  /// elsewhere. Default 4: an RMS residual twice the best's (bench/README.md,
   /// "A rival fit must explain the view as well").
   double rival_residual_ratio = 4;
   /// ...and only when it pairs at least this share of the best fit's information-weighted
