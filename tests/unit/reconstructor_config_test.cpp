@@ -108,6 +108,8 @@ TEST(ReconstructorConfig, RejectsSettingsOutOfRange) {
   expect_checked(c, c.relocalization.rival_residual_ratio, -1, 0, "rival_residual_ratio");
   expect_checked(c, c.relocalization.rival_inlier_ratio, -0.5, 0, "rival_inlier_ratio");
   expect_checked(c, c.relocalization.max_translation_condition, -1, 0, "max_translation_condition");
+  expect_checked(c, c.relocalization.turned_condition_factor, 1.5, 1, "turned_condition_factor");
+  expect_checked(c, c.relocalization.turned_condition_factor, 0, 0.5, "turned_condition_factor");
   expect_checked(c, c.tracking.residual_ratio, -1, 0, "tracking.residual_ratio");
   expect_checked(c, c.relocalization.turn_step_deg, 120, 0, "turn_step_deg");
   expect_checked(c, c.recovery.agreement_distance, -0.05, 0, "recovery.agreement_distance");

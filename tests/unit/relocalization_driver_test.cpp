@@ -561,6 +561,34 @@ TEST(RelocalizationWithoutGyro, AFitThatFixesOnlyThePositionDoesNotPlaceTheFrame
   expect_never_placed(model, 3 * ReconstructorConfig{}.relocalization.interval);
 }
 
+TEST(RelocalizationWithoutGyro, AFitThatOnlyJustFixesEveryDirectionDoesNotPlaceTheFrame) {
+  // kappa 400 passes the tracking gate (562.3) but not half of it
+  // (relocalization.turned_condition_factor, 0.5): without the gyroscope such a fit may be
+  // coincidental structure far from the camera.
+  const ReconstructorConfig defaults;
+  ASSERT_NEAR(defaults.relocalization.turned_condition_factor, 0.5, 1e-12);
+  TurnedRoomModel model;
+  model.basin_condition = 400;
+  expect_never_placed(model, 3 * defaults.relocalization.interval);
+  // With the factor at 1 the same fit ends the loss at the confirming search; kappa 250, within
+  // half the gate, ends it with the default.
+  for (const auto& [factor, condition] : {std::pair{1.0, 400.0}, std::pair{0.5, 250.0}}) {
+    ReconstructorConfig config;
+    config.relocalization.turned_condition_factor = factor;
+    TurnedRoomModel placed_model;
+    placed_model.basin_condition = condition;
+    const Eigen::Isometry3d lost_at = upright_camera(Eigen::Vector3d(0.8, 0.6, 0.6), 0);
+    placed_model.truth = upright_camera(Eigen::Vector3d(1.2, 0.9, 0.6), 140);
+    RelocalizationDriver driver(config);
+    const int n = config.relocalization.interval;
+    for (int k = 1; k <= n; ++k) EXPECT_FALSE(lost_without_gyro(driver, placed_model, k, lost_at));
+    const auto found = lost_without_gyro(driver, placed_model, n + 1, lost_at);
+    ASSERT_TRUE(found) << "factor " << factor << ", kappa " << condition;
+    EXPECT_LT((found->T_world_camera.translation() - placed_model.truth.translation()).norm(),
+              1e-9);
+  }
+}
+
 TEST(RelocalizationWithoutGyro, TheConfirmationAllowsForWhatTheCameraMovesBetweenTheFrames) {
   // The camera moves 0.2 m between the lost frame whose search finds the only fit and the next
   // one, while the estimate stays where the scan was lost.

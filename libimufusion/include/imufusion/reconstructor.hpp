@@ -88,6 +88,12 @@ struct RelocalizationConfig {
   /// lost (and within inertial.max_speed times the time since, which bounds every search's
   /// fits). 0: no search without the gyroscope. Default 15.
   double turn_step_deg = 15;
+  /// Without the gyroscope a fit places the frame only when its kappa is at most this factor
+  /// of icp.reliability.max_condition (0..1; 1: the tracking gate alone): with the orientation
+  /// searched too, a view that only just fixes every direction fits coincidental structure of
+  /// the model far from the camera. Default 0.5 (bench/README.md, "A fit without the gyroscope
+  /// fixes every direction with a margin").
+  double turned_condition_factor = 0.5;
   /// A fit elsewhere (ICP from another candidate, reliable but for the condition number; with
   /// the gyroscope, one that fixes every direction or its position) makes the view ambiguous
   /// only when its residual per weight is within this factor of the best fit's; 0: any fit

@@ -72,6 +72,9 @@ Status ReconstructorConfig::validate() const {
   if (!(r.turn_step_deg >= 0 && r.turn_step_deg <= 90))
     return bad("relocalization.turn_step_deg must be 0..90 deg, got " +
                std::to_string(r.turn_step_deg));
+  if (!(r.turned_condition_factor > 0 && r.turned_condition_factor <= 1))
+    return bad("relocalization.turned_condition_factor must be in (0, 1], got " +
+               std::to_string(r.turned_condition_factor));
   if (smoothing.retrack_frames < 0 || smoothing.retrack_frames > 100000)
     return bad("smoothing.retrack_frames must be 0..100000, got " +
                std::to_string(smoothing.retrack_frames));

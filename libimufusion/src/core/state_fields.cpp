@@ -61,7 +61,7 @@ void describe(StateArchive& a, ImuAidConfig& x) {
 void describe(StateArchive& a, RelocalizationConfig& x) {
   a(x.enabled, x.interval, x.cell, x.candidates, x.drift_acceleration, x.max_radius,
     x.near_fit_condition_factor, x.turn_step_deg, x.rival_residual_ratio, x.rival_inlier_ratio,
-    x.max_translation_condition);
+    x.max_translation_condition, x.turned_condition_factor);
 }
 
 void describe(StateArchive& a, RecoveryConfig& x) {

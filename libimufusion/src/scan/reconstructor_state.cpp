@@ -21,7 +21,7 @@ namespace imufusion {
 namespace {
 
 constexpr std::array<char, 8> kMagic = {'I', 'M', 'U', 'F', 'S', 'C', 'A', 'N'};
-constexpr std::uint32_t kVersion = 17;  // 2: the lens distortion; 3: the reference's reuse;
+constexpr std::uint32_t kVersion = 18;  // 2: the lens distortion; 3: the reference's reuse;
                                         // 4: relocalization's confirmation of an ambiguous fit;
                                         // 5: ICP's photometric term, the reference's colours;
                                         // 6: the photometric term's pixel step;
@@ -39,7 +39,8 @@ constexpr std::uint32_t kVersion = 17;  // 2: the lens distortion; 3: the refere
                                         // 15: the residual test's reference;
                                         // 16: relocalization's rival inlier ratio;
                                         // 17: its translation condition limit, the
-                                        //     partial frames' turns
+                                        //     partial frames' turns;
+                                        // 18: the condition factor without the gyroscope
 constexpr std::size_t kHeaderBytes = 24;
 
 // Floats in each of the reference maps saved with a scan: four per pixel of the tracking level.

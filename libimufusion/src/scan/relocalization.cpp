@@ -257,6 +257,10 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
       }
     }
     if (!icp.reliable() || !icp.quality.converged) continue;
+    // Without the gyroscope, a fit that only just fixes every direction is no place for the
+    // frame (relocalization.turned_condition_factor); it still counts as a rival above.
+    if (turning && icp.quality.condition > config_.turned_condition_factor * max_condition)
+      continue;
     placed_at.push_back(fit);
     // The best fit: one that fixes every direction before one placed by its translation alone,
     // then the lowest residual per weight.
