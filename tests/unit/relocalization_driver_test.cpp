@@ -10,6 +10,7 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -527,6 +528,19 @@ void expect_never_placed(TurnedRoomModel& model, int frames) {
   EXPECT_FALSE(model.seeds.empty());
 }
 
+// The same loss with `config`: the regular search finds the only fit, and the next lost frame's
+// search confirms it at the true pose.
+void expect_placed_at_confirmation(TurnedRoomModel& model, const ReconstructorConfig& config) {
+  const Eigen::Isometry3d lost_at = upright_camera(Eigen::Vector3d(0.8, 0.6, 0.6), 0);
+  model.truth = upright_camera(Eigen::Vector3d(1.2, 0.9, 0.6), 140);
+  RelocalizationDriver driver(config);
+  const int n = config.relocalization.interval;
+  for (int k = 1; k <= n; ++k) EXPECT_FALSE(lost_without_gyro(driver, model, k, lost_at));
+  const auto found = lost_without_gyro(driver, model, n + 1, lost_at);
+  ASSERT_TRUE(found);
+  EXPECT_LT((found->T_world_camera.translation() - model.truth.translation()).norm(), 1e-9);
+}
+
 TEST(RelocalizationWithoutGyro, TheSearchFindsAFrameThatTurnedAndMovedWhileLost) {
   TurnedRoomModel model;
   // Lost facing +x at (0.8, 0.6, 0.6); the camera turned 140 deg and moved 0.5 m since, and
@@ -573,19 +587,12 @@ TEST(RelocalizationWithoutGyro, AFitThatOnlyJustFixesEveryDirectionDoesNotPlaceT
   // With the factor at 1 the same fit ends the loss at the confirming search; kappa 250, within
   // half the gate, ends it with the default.
   for (const auto& [factor, condition] : {std::pair{1.0, 400.0}, std::pair{0.5, 250.0}}) {
+    SCOPED_TRACE("factor " + std::to_string(factor) + ", kappa " + std::to_string(condition));
     ReconstructorConfig config;
     config.relocalization.turned_condition_factor = factor;
     TurnedRoomModel placed_model;
     placed_model.basin_condition = condition;
-    const Eigen::Isometry3d lost_at = upright_camera(Eigen::Vector3d(0.8, 0.6, 0.6), 0);
-    placed_model.truth = upright_camera(Eigen::Vector3d(1.2, 0.9, 0.6), 140);
-    RelocalizationDriver driver(config);
-    const int n = config.relocalization.interval;
-    for (int k = 1; k <= n; ++k) EXPECT_FALSE(lost_without_gyro(driver, placed_model, k, lost_at));
-    const auto found = lost_without_gyro(driver, placed_model, n + 1, lost_at);
-    ASSERT_TRUE(found) << "factor " << factor << ", kappa " << condition;
-    EXPECT_LT((found->T_world_camera.translation() - placed_model.truth.translation()).norm(),
-              1e-9);
+    expect_placed_at_confirmation(placed_model, config);
   }
 }
 

@@ -89,7 +89,7 @@ struct RelocalizationConfig {
   /// fits). 0: no search without the gyroscope. Default 15.
   double turn_step_deg = 15;
   /// Without the gyroscope a fit places the frame only when its kappa is at most this factor
-  /// of icp.reliability.max_condition (0..1; 1: the tracking gate alone): with the orientation
+  /// of icp.reliability.max_condition (in (0, 1]; 1: the tracking gate alone): with the orientation
   /// searched too, a view that only just fixes every direction fits coincidental structure of
   /// the model far from the camera. Default 0.5 (bench/README.md, "A fit without the gyroscope
   /// fixes every direction with a margin").
