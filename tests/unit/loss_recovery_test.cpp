@@ -39,9 +39,7 @@ class ScriptedAligner : public ModelAligner {
     return p;
   }
   IcpReliabilityThresholds reliability(const DepthView&) const override { return {}; }
-  Result<std::vector<Eigen::Vector3d>> frame_points(int) override {
-    return std::vector<Eigen::Vector3d>{};
-  }
+  Result<FramePoints> frame_points(int) override { return FramePoints{}; }
   Result<HostVolume> model_snapshot() const override { return HostVolume{}; }
 };
 

@@ -80,13 +80,13 @@ class ScriptedModel : public ModelAligner {
   }
   IcpReliabilityThresholds reliability(const DepthView&) const override { return {}; }
   // A patch of the floor 2 m below the camera (camera frame: z forward).
-  Result<std::vector<Eigen::Vector3d>> frame_points(int) override {
+  Result<FramePoints> frame_points(int) override {
     ++searches;
     next_ = 0;
-    std::vector<Eigen::Vector3d> points;
+    FramePoints out;
     for (int i = -5; i <= 5; ++i)
-      for (int j = -5; j <= 5; ++j) points.emplace_back(0.1 * i, 0.1 * j, 2.0 - lift);
-    return points;
+      for (int j = -5; j <= 5; ++j) out.points.emplace_back(0.1 * i, 0.1 * j, 2.0 - lift);
+    return out;
   }
   Result<HostVolume> model_snapshot() const override { return volume_; }
 
@@ -425,8 +425,8 @@ class TurnedRoomModel : public ModelAligner {
   }
   IcpReliabilityThresholds reliability(const DepthView&) const override { return {}; }
   // The room's surface along a grid of rays within 25 deg of the true camera's axis.
-  Result<std::vector<Eigen::Vector3d>> frame_points(int) override {
-    std::vector<Eigen::Vector3d> points;
+  Result<FramePoints> frame_points(int) override {
+    FramePoints out;
     const Eigen::Vector3d c = truth.translation();
     for (int i = -10; i <= 10; ++i)
       for (int j = -10; j <= 10; ++j) {
@@ -440,9 +440,9 @@ class TurnedRoomModel : public ModelAligner {
           if (d[a] > 1e-9) t = std::min(t, (hi[a] - c[a]) / d[a]);
           if (d[a] < -1e-9) t = std::min(t, (lo[a] - c[a]) / d[a]);
         }
-        points.push_back(t * ray_camera);
+        out.points.push_back(t * ray_camera);
       }
-    return points;
+    return out;
   }
   Result<HostVolume> model_snapshot() const override { return volume_; }
 
@@ -475,7 +475,7 @@ class AliasedRoomModel : public TurnedRoomModel {
     }
     return p;
   }
-  Result<std::vector<Eigen::Vector3d>> frame_points(int level) override {
+  Result<FramePoints> frame_points(int level) override {
     alias_placed_ = false;  // each search meets the alias once
     return TurnedRoomModel::frame_points(level);
   }

@@ -119,6 +119,62 @@ TEST(SurfaceDistanceField, SearchFindsTheTranslationOfAStructuredView) {
   for (const auto& c : near) EXPECT_GT((c.translation - T.translation()).norm(), 0.3);
 }
 
+// A view that is mostly wall (normal -z) with a few points of an edge (normals +x and +y):
+// every edge point is kept, the wall fills the rest, each bin spread over its order.
+TEST(NormalSpaceSubset, KeepsWhatIsNotWallAndSpreadsTheWall) {
+  std::vector<Eigen::Vector3d> points, normals;
+  for (int i = 0; i < 20000; ++i) {
+    points.emplace_back(0.001 * i, 0.0, 1.0);
+    normals.emplace_back(0.0, 0.0, -1.0);
+    if (i % 250 == 0) {  // 80 edge points among the wall's, in the pixels' order
+      points.emplace_back(0.001 * i, 0.5, 1.2);
+      normals.push_back((i / 250) % 2 == 0 ? Eigen::Vector3d(1, 0, 0)
+                                           : Eigen::Vector3d(0, 0.96, -0.28));
+    }
+  }
+  const std::vector<Eigen::Vector3d> kept = normal_space_subset(points, normals, 800);
+  ASSERT_LE(kept.size(), 800u);
+  EXPECT_GE(kept.size(), 798u);
+  const auto edge = std::count_if(kept.begin(), kept.end(),
+                                  [](const Eigen::Vector3d& p) { return p.y() > 0.25; });
+  EXPECT_EQ(edge, 80);
+  // The wall's share spreads over its whole extent, not its first pixels.
+  double wall_max = 0;
+  for (const Eigen::Vector3d& p : kept)
+    if (p.y() < 0.25) wall_max = std::max(wall_max, p.x());
+  EXPECT_GT(wall_max, 19.0);
+  // An even spread over the pixels keeps about 3 of the 80.
+  const std::vector<Eigen::Vector3d> spread = spread_subset(points, 800);
+  EXPECT_LT(std::count_if(spread.begin(), spread.end(),
+                          [](const Eigen::Vector3d& p) { return p.y() > 0.25; }),
+            10);
+  // Without normals, or with as few points as asked for, nothing changes.
+  EXPECT_EQ(normal_space_subset(points, {}, 800), spread);
+  EXPECT_EQ(normal_space_subset(spread, std::vector<Eigen::Vector3d>(800), 800), spread);
+}
+
+// Bins smaller than the share keep all their points; the rest share what is left equally.
+TEST(NormalSpaceSubset, SharesWhatSmallBinsLeave) {
+  std::vector<Eigen::Vector3d> points, normals;
+  const std::vector<std::pair<Eigen::Vector3d, int>> bins{
+      {{1, 0, 0}, 10}, {{0, 1, 0}, 500}, {{0, 0, 1}, 1000}, {{0, 0, 0}, 5}};
+  for (std::size_t k = 0; k < bins.size(); ++k)
+    for (int i = 0; i < bins[k].second; ++i) {
+      points.emplace_back(0.001 * i, static_cast<double>(k), 0.0);  // y: the bin
+      normals.push_back(bins[k].first);
+    }
+  const std::vector<Eigen::Vector3d> kept = normal_space_subset(points, normals, 415);
+  ASSERT_EQ(kept.size(), 415u);
+  std::vector<int> per_bin(bins.size(), 0);
+  for (const Eigen::Vector3d& p : kept) ++per_bin[static_cast<std::size_t>(std::lround(p.y()))];
+  EXPECT_EQ(per_bin, (std::vector<int>{10, 200, 200, 5}));
+  // The bins are taken in turn: the first four points are one of each.
+  std::vector<long> first;
+  for (std::size_t i = 0; i < 4; ++i) first.push_back(std::lround(kept[i].y()));
+  std::sort(first.begin(), first.end());
+  EXPECT_EQ(first, (std::vector<long>{0, 1, 2, 3}));
+}
+
 TEST(SurfaceDistanceField, MergedSearchesKeepTheBestDistinctCandidates) {
   const auto at = [](double x, double cost) {
     TranslationCandidate c;

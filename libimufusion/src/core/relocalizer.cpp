@@ -2,8 +2,10 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <unordered_set>
 
 namespace imufusion {
@@ -170,6 +172,54 @@ std::vector<Eigen::Vector3d> spread_subset(const std::vector<Eigen::Vector3d>& p
   const double stride = static_cast<double>(points.size()) / static_cast<double>(count);
   for (std::size_t i = 0; i < count; ++i)
     kept.push_back(points[static_cast<std::size_t>(static_cast<double>(i) * stride)]);
+  return kept;
+}
+
+std::vector<Eigen::Vector3d> normal_space_subset(const std::vector<Eigen::Vector3d>& points,
+                                                 const std::vector<Eigen::Vector3d>& normals,
+                                                 std::size_t count) {
+  if (normals.size() != points.size() || points.size() <= count)
+    return spread_subset(points, count);
+  // Bins of the sphere: each component of the normal rounded to a half (bins about 30 degrees
+  // wide), in the order a bin first occurs.
+  std::map<std::array<int, 3>, std::size_t> bin_of_key;
+  std::vector<std::vector<std::size_t>> bins;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3d& n = normals[i];
+    const std::array<int, 3> key{static_cast<int>(std::lround(2 * n.x())),
+                                 static_cast<int>(std::lround(2 * n.y())),
+                                 static_cast<int>(std::lround(2 * n.z()))};
+    const auto [it, added] = bin_of_key.try_emplace(key, bins.size());
+    if (added) bins.emplace_back();
+    bins[it->second].push_back(i);
+  }
+  // The largest share per bin that the count allows (water filling over the bins' sizes).
+  std::vector<std::size_t> sizes;
+  for (const auto& b : bins) sizes.push_back(b.size());
+  std::sort(sizes.begin(), sizes.end());
+  std::size_t share = 0, left = count, open = sizes.size();
+  for (std::size_t s : sizes) {
+    if ((s - share) * open > left) {
+      share += left / open;
+      left = 0;
+      break;
+    }
+    left -= (s - share) * open;
+    share = s;
+    --open;
+  }
+  std::vector<std::vector<Eigen::Vector3d>> taken;
+  std::size_t most = 0;
+  for (const auto& b : bins) {
+    std::vector<Eigen::Vector3d> in_bin;
+    for (std::size_t i : b) in_bin.push_back(points[i]);
+    taken.push_back(spread_subset(in_bin, std::min(share, b.size())));
+    most = std::max(most, taken.back().size());
+  }
+  std::vector<Eigen::Vector3d> kept;
+  for (std::size_t k = 0; k < most; ++k)
+    for (const auto& t : taken)
+      if (k < t.size()) kept.push_back(t[k]);
   return kept;
 }
 

@@ -85,6 +85,15 @@ std::vector<T> distinct_places(const std::vector<T>& sorted, int count, double s
 std::vector<Eigen::Vector3d> spread_subset(const std::vector<Eigen::Vector3d>& points,
                                            std::size_t count);
 
+/// At most `count` of `points`, spread over the directions of their unit `normals` (one per
+/// point; a zero normal is a direction of its own): each direction's bin of the sphere keeps the
+/// same share, all of its points when it has fewer, each bin's spread evenly over their order
+/// (normal-space sampling, Rusinkiewicz and Levoy 2001), the bins taken in turn. Without normals
+/// (`normals` of another size), spread_subset.
+std::vector<Eigen::Vector3d> normal_space_subset(const std::vector<Eigen::Vector3d>& points,
+                                                 const std::vector<Eigen::Vector3d>& normals,
+                                                 std::size_t count);
+
 /// World points of the zero crossing of a TSDF snapshot: the voxels observed (weight > 0) with
 /// |tsdf| below half the truncation band, one point per voxel, in the order of the blocks'
 /// coordinates: the same for the same model whatever order the GPU allocated its blocks in.

@@ -30,8 +30,13 @@ class ModelAligner {
                                   FrameTimings& timings) = 0;
   /// The reliability thresholds of `depth`'s alignment.
   virtual IcpReliabilityThresholds reliability(const DepthView& depth) const = 0;
-  /// The current frame's valid vertices at pyramid level `level` (camera frame, metres).
-  virtual Result<std::vector<Eigen::Vector3d>> frame_points(int level) = 0;
+  /// The current frame's valid vertices at pyramid level `level` (camera frame, metres), with
+  /// their unit normals (one per point; empty when the frame has none).
+  struct FramePoints {
+    std::vector<Eigen::Vector3d> points;
+    std::vector<Eigen::Vector3d> normals;
+  };
+  virtual Result<FramePoints> frame_points(int level) = 0;
   /// A host copy of the model.
   virtual Result<HostVolume> model_snapshot() const = 0;
 };

@@ -247,14 +247,23 @@ Result<ModelAligner::Placement> Reconstructor::Impl::place(const DepthView& dept
   return Placement{*icp, T_world_reference * icp->T_ref_cur};
 }
 
-Result<std::vector<Eigen::Vector3d>> Reconstructor::Impl::frame_points(int level) {
+Result<ModelAligner::FramePoints> Reconstructor::Impl::frame_points(int level) {
   const Intrinsics& k = current.intrinsics(level);
   auto map = download_map(current.vertices(level), k.width, k.height);
   if (!map) return map.error();
-  std::vector<Eigen::Vector3d> points;
-  for (const Eigen::Vector4f& v : map->data)
-    if (v.w() > 0.5f) points.push_back(v.head<3>().cast<double>());
-  return points;
+  auto normal_map = download_map(current.normals(level), k.width, k.height);
+  if (!normal_map) return normal_map.error();
+  FramePoints out;
+  for (std::size_t i = 0; i < map->data.size(); ++i) {
+    const Eigen::Vector4f& v = map->data[i];
+    if (v.w() <= 0.5f) continue;
+    out.points.push_back(v.head<3>().cast<double>());
+    // A pixel without a normal (an edge of the depth) keeps a zero one.
+    const Eigen::Vector3d n = normal_map->data[i].head<3>().cast<double>();
+    out.normals.push_back(n.allFinite() && n.norm() > 0.5 ? n.normalized()
+                                                          : Eigen::Vector3d::Zero());
+  }
+  return out;
 }
 
 }  // namespace imufusion

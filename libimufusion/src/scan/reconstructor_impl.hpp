@@ -143,7 +143,7 @@ struct Reconstructor::Impl final : ModelAligner {
   Result<Placement> place(const DepthView& depth, const Eigen::Isometry3d& T_world_seed,
                           FrameTimings& timings) override;
   IcpReliabilityThresholds reliability(const DepthView& depth) const override;
-  Result<std::vector<Eigen::Vector3d>> frame_points(int level) override;
+  Result<FramePoints> frame_points(int level) override;
   Result<HostVolume> model_snapshot() const override { return volume.snapshot(); }
 
   // Everything on the host the next frames depend on, but the configuration, the tracking level

@@ -188,7 +188,10 @@ Result<std::optional<ModelAligner::Placement>> RelocalizationDriver::search(cons
   auto all_points = model.frame_points(coarse_level_);
   if (!all_points) return all_points.error();
   constexpr std::size_t kMaxPoints = 800;  // enough for a chamfer fit; the search is linear in it
-  const std::vector<Eigen::Vector3d> points = spread_subset(*all_points, kMaxPoints);
+  // Spread over the normals' directions: a view that is mostly wall keeps every point of what
+  // fixes the slide along it, which an even spread over the pixels would drown in wall points.
+  const std::vector<Eigen::Vector3d> points =
+      normal_space_subset(all_points->points, all_points->normals, kMaxPoints);
   const Eigen::Isometry3d& T_estimate = frame.T_world_estimate;
   std::vector<Oriented> candidates;
   if (turning) {
