@@ -66,10 +66,10 @@ struct ImuAidConfig {
 /// distance field of the model over translations within a radius of dead reckoning's position
 /// and of the last fully constrained one, scored on the frame's points spread over their
 /// normals' directions (a view mostly of wall keeps all of what fixes the slide along it), then
-/// full ICP from the best fits and from the estimate
-/// itself (and, while a fit waits for confirmation, from the estimate at its correction). An
-/// ambiguous view (another fit elsewhere) takes nothing until the next lost frame's search puts
-/// the camera at the same correction of dead reckoning, with no reliable fit elsewhere repeated.
+/// full ICP from the best fits and from the estimate itself (and, while a fit waits for
+/// confirmation, from the estimate at its correction). An ambiguous view (another fit elsewhere)
+/// takes nothing until the next lost frame's search puts the camera at the same correction of dead
+/// reckoning, with no reliable fit elsewhere repeated.
 struct RelocalizationConfig {
   bool enabled = true;
   int interval = 5;    // lost frames between searches
