@@ -72,6 +72,17 @@ std::vector<Eigen::Vector3d> frame_points(const std::vector<Eigen::Vector3d>& su
   return out;
 }
 
+// frame_points with Gaussian noise of `sigma` (m) per axis, the same for the same `seed`.
+std::vector<Eigen::Vector3d> noisy_frame_points(const std::vector<Eigen::Vector3d>& surface,
+                                                const Eigen::Isometry3d& T, std::size_t stride,
+                                                double sigma, unsigned seed) {
+  std::vector<Eigen::Vector3d> points = frame_points(surface, T, stride);
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, sigma);
+  for (Eigen::Vector3d& p : points) p += Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+  return points;
+}
+
 TEST(SurfaceDistanceField, DistanceToAPlaneWithinACellAndCutOffBeyond) {
   std::vector<Eigen::Vector3d> plane;
   for (double x = -1; x <= 1; x += 0.01)
@@ -99,11 +110,8 @@ TEST(SurfaceDistanceField, SearchFindsTheTranslationOfAStructuredView) {
   const std::vector<Eigen::Vector3d> surface = room_surface(0.02);
   const SurfaceDistanceField field(surface, 0.05, 0.2);
   const Eigen::Isometry3d T = camera_pose();
-  std::vector<Eigen::Vector3d> points = frame_points(surface, T, 7);
+  const std::vector<Eigen::Vector3d> points = noisy_frame_points(surface, T, 7, 0.005, 3);
   ASSERT_GT(points.size(), 300u);
-  std::mt19937 rng(3);
-  std::normal_distribution<double> noise(0.0, 0.005);
-  for (Eigen::Vector3d& p : points) p += Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
   const Eigen::Vector3d drift(0.45, -0.4, 0.35);
   const auto candidates = field.search(points, T.linear(), T.translation() + drift, 0.8, 3);
   ASSERT_FALSE(candidates.empty());
@@ -117,6 +125,46 @@ TEST(SurfaceDistanceField, SearchFindsTheTranslationOfAStructuredView) {
   // Out of reach: searched within 0.3 m of a position 0.7 m off, the true one is not offered.
   const auto near = field.search(points, T.linear(), T.translation() + drift, 0.3, 3);
   for (const auto& c : near) EXPECT_GT((c.translation - T.translation()).norm(), 0.3);
+}
+
+// Searched from near the field's corner, so that many offsets put points outside its grid: every
+// candidate costs what the points' own distances give at its translation (the cutoff outside the
+// grid), is no costlier than any neighbouring offset within the radius, and lies within it.
+TEST(SurfaceDistanceField, EveryCandidateCostsThePointsOwnDistancesAndIsALocalMinimum) {
+  const std::vector<Eigen::Vector3d> surface = room_surface(0.02);
+  const double cell = 0.05, cutoff = 0.2, radius = 1.0;
+  const SurfaceDistanceField field(surface, cell, cutoff);
+  const Eigen::Isometry3d T = camera_pose();
+  const std::vector<Eigen::Vector3d> points = noisy_frame_points(surface, T, 11, 0.004, 5);
+  ASSERT_GT(points.size(), 200u);
+  const auto cost_at = [&](const Eigen::Vector3d& t) {
+    double sum = 0;
+    for (const Eigen::Vector3d& p : points) sum += std::pow(field.distance(T.linear() * p + t), 2);
+    return sum / static_cast<double>(points.size());
+  };
+  const int n = static_cast<int>(std::floor(radius / cell));
+  // Beyond the low corner of the grid in every axis, then beyond its high end in x.
+  for (const Eigen::Vector3d& shift :
+       {Eigen::Vector3d(-1.2, -1.2, -0.9), Eigen::Vector3d(3.0, -0.3, 0.0)}) {
+    const Eigen::Vector3d center = T.translation() + shift;
+    SCOPED_TRACE("searched from " + std::to_string(center.x()) + ", " + std::to_string(center.y()) +
+                 ", " + std::to_string(center.z()));
+    const auto candidates = field.search(points, T.linear(), center, radius, 40);
+    ASSERT_GT(candidates.size(), 5u);
+    for (const TranslationCandidate& c : candidates) {
+      const Eigen::Vector3i o = ((c.translation - center) / cell).array().round().cast<int>();
+      ASSERT_LE(o.squaredNorm(), n * n);
+      EXPECT_NEAR(c.cost, cost_at(c.translation), 1e-12);
+      for (int dz = -1; dz <= 1; ++dz)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const Eigen::Vector3i q = o + Eigen::Vector3i(dx, dy, dz);
+            if (q.squaredNorm() > n * n) continue;
+            EXPECT_GE(cost_at(center + q.cast<double>() * cell), c.cost - 1e-12)
+                << "offset " << q.transpose() << " beside " << o.transpose();
+          }
+    }
+  }
 }
 
 // A view that is mostly wall (normal -z) with a few points of an edge (normals +x and +y):

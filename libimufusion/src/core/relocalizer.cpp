@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstddef>
 #include <limits>
 #include <map>
 #include <unordered_set>
@@ -94,19 +95,59 @@ std::vector<TranslationCandidate> SurfaceDistanceField::search(
     return cost[static_cast<std::size_t>((x + n) + side * ((y + n) + side * (z + n)))];
   };
   const double cut2 = cutoff_ * cutoff_;
+  // The offsets within the sphere, row by row: |x| <= reach[y, z] (-1: none in that row).
+  std::vector<int> reach(static_cast<std::size_t>(side) * side, -1);
   for (int z = -n; z <= n; ++z)
-    for (int y = -n; y <= n; ++y)
-      for (int x = -n; x <= n; ++x) {
-        if (x * x + y * y + z * z > n * n) continue;
-        const Eigen::Vector3i o(x, y, z);
-        double sum = 0;
-        for (const Eigen::Vector3i& b : base) {
-          const std::int64_t i = index(b + o);
-          const double d = i < 0 ? cutoff_ : distance_[static_cast<std::size_t>(i)];
-          sum += d * d;
+    for (int y = -n; y <= n; ++y) {
+      const int r2 = n * n - y * y - z * z;
+      if (r2 < 0) continue;
+      int r = static_cast<int>(std::sqrt(static_cast<double>(r2)));
+      while (r * r > r2) --r;
+      while ((r + 1) * (r + 1) <= r2) ++r;
+      reach[static_cast<std::size_t>((y + n) + side * (z + n))] = r;
+    }
+  // Each offset's sum over the points in their order, one slab of offsets at a time (it stays in
+  // the cache) and a row of the field at a time: the distances an offset row reads are
+  // contiguous, and outside the grid every point counts the cutoff.
+  std::vector<double> slab(static_cast<std::size_t>(side) * side);
+  for (int z = -n; z <= n; ++z) {
+    std::fill(slab.begin(), slab.end(), 0.0);
+    for (const Eigen::Vector3i& b : base) {
+      const int cz = b.z() + z;
+      const bool z_inside = cz >= 0 && cz < size_.z();
+      for (int y = -n; y <= n; ++y) {
+        const int r = reach[static_cast<std::size_t>((y + n) + side * (z + n))];
+        if (r < 0) continue;
+        double* row = slab.data() + static_cast<std::ptrdiff_t>(side) * (y + n) + n;
+        const int cy = b.y() + y;
+        int lo = r + 1, hi = r;  // the offsets x in [lo, hi] read the field; none by default
+        if (z_inside && cy >= 0 && cy < size_.y()) {
+          lo = std::max(-r, -b.x());
+          hi = std::min(r, size_.x() - 1 - b.x());
         }
-        at(x, y, z) = sum / static_cast<double>(base.size());
+        if (lo > hi) {
+          for (int x = -r; x <= r; ++x) row[x] += cut2;
+          continue;
+        }
+        for (int x = -r; x < lo; ++x) row[x] += cut2;
+        const float* field = distance_.data() +
+                             static_cast<std::ptrdiff_t>(size_.x()) *
+                                 (cy + static_cast<std::ptrdiff_t>(size_.y()) * cz) +
+                             b.x();
+        for (int x = lo; x <= hi; ++x) {
+          const double d = field[x];
+          row[x] += d * d;
+        }
+        for (int x = hi + 1; x <= r; ++x) row[x] += cut2;
       }
+    }
+    for (int y = -n; y <= n; ++y) {
+      const int r = reach[static_cast<std::size_t>((y + n) + side * (z + n))];
+      for (int x = -r; x <= r; ++x)
+        at(x, y, z) = slab[static_cast<std::size_t>((x + n) + side * (y + n))] /
+                      static_cast<double>(base.size());
+    }
+  }
   // Local minima (no lower neighbour among the 26) that fit at least some points.
   struct Minimum {
     Eigen::Vector3i offset;
