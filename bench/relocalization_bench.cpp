@@ -10,28 +10,27 @@
 #include <benchmark/benchmark.h>
 
 #include <Eigen/Geometry>
-#include <cmath>
 #include <numbers>
 #include <vector>
 
 #include "core/relocalizer.hpp"
 #include "imufusion/synth.hpp"
+#include "reference/preprocess_reference.hpp"
 
 namespace imufusion {
 namespace {
 
-// The world points of a noiseless depth image seen from T at `k`, every `stride`-th pixel.
+// The points of a noiseless depth image seen from T at `k` within 0.3-4 m, in the world frame
+// (`world`) or the camera's.
 std::vector<Eigen::Vector3d> seen_points(const synth::Scene& scene, const Eigen::Isometry3d& T,
-                                         const Intrinsics& k, int stride, bool world) {
-  const FloatImage depth = synth::raycast_depth(scene, T, k);
+                                         const Intrinsics& k, bool world) {
+  const Vec4Image vertices = reference::vertex_map(synth::raycast_depth(scene, T, k), k);
   std::vector<Eigen::Vector3d> out;
-  for (int v = 0; v < depth.height; v += stride)
-    for (int u = 0; u < depth.width; u += stride) {
-      const double z = depth.at(u, v);
-      if (!(z > 0.3 && z < 4.0)) continue;
-      const Eigen::Vector3d p((u - k.cx) * z / k.fx, (v - k.cy) * z / k.fy, z);
-      out.push_back(world ? Eigen::Vector3d(T * p) : p);
-    }
+  for (const Eigen::Vector4f& v : vertices.data) {
+    const Eigen::Vector3d p = v.head<3>().cast<double>();
+    if (v.w() == 0 || !(p.z() > 0.3 && p.z() < 4.0)) continue;
+    out.push_back(world ? Eigen::Vector3d(T * p) : p);
+  }
   return out;
 }
 
@@ -48,11 +47,11 @@ const Setup& setup() {
     const Intrinsics k160 = synth::default_intrinsics(160, 120);
     for (int i = 0; i < 60; ++i) {
       const std::vector<Eigen::Vector3d> seen =
-          seen_points(scene, motion.pose_at(0.2 * i), k160, 1, true);
+          seen_points(scene, motion.pose_at(0.2 * i), k160, true);
       out.surface.insert(out.surface.end(), seen.begin(), seen.end());
     }
     out.T = motion.pose_at(6.1);
-    out.frame = seen_points(scene, out.T, synth::default_intrinsics(80, 60), 1, false);
+    out.frame = seen_points(scene, out.T, synth::default_intrinsics(80, 60), false);
     return out;
   }();
   return s;
